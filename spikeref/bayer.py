@@ -1,0 +1,196 @@
+"""Bayer colour filter arrays: the mosaic <-> four planes split, and Ψ.
+
+The paper (§4.1) splits the mosaicked chromatic frame into its four Bayer
+channels of size ``H/2 × W/2`` before denoising, and recombines them after;
+Eq. 13 applies Ψ, "linear interpolation demosaicking", to obtain RGB.
+
+Conventions (``docs/equations.md``, DESIGN §3)
+---------------------------------------------
+* A CFA pattern is a 4-letter string read at the positions (0,0), (0,1),
+  (1,0), (1,1) of every 2×2 cell of the *upright* image: ``"RGGB"`` means
+  red at the top-left.  ``RGGB`` (default), ``BGGR``, ``GRBG``, ``GBRG``.
+* Planes are ordered by **position**, not by colour: plane ``p`` holds the
+  pixels ``mosaic[p // 2 :: 2, p % 2 :: 2]``.  ``cfa_channels(cfa)`` tells
+  which RGB channel (0, 1, 2) each plane carries.
+* Ψ is bilinear interpolation written as a *normalised* convolution: for
+  channel ``c`` every output pixel is the weighted mean of the channel-``c``
+  samples in its 3×3 neighbourhood, with the weights
+  ``[[0,1,0],[1,4,1],[0,1,0]]/4`` for G and ``[[1,2,1],[2,4,2],[1,2,1]]/4``
+  for R and B.  Away from the border the weights of the present samples sum
+  to exactly 1, so this *is* the classic bilinear demosaic; at the border the
+  image is extended half-sample symmetrically (``d c b a | a b c d``) and the
+  weights are renormalised, so a flat mosaic stays flat and a sampled pixel
+  keeps its own value exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spikeref._jit import njit, prange
+
+__all__ = [
+    "CFA_PATTERNS",
+    "validate_cfa",
+    "cfa_channels",
+    "cfa_channel_map",
+    "bayer_planes",
+    "bayer_mosaic",
+    "demosaic_bilinear",
+]
+
+CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
+_CHANNEL_INDEX = {"R": 0, "G": 1, "B": 2}
+
+#: Ψ weights (Eq. 13), before normalisation; index [dy + 1, dx + 1].
+G_KERNEL = np.array([[0, 1, 0], [1, 4, 1], [0, 1, 0]], dtype=np.float64) / 4.0
+RB_KERNEL = np.array([[1, 2, 1], [2, 4, 2], [1, 2, 1]], dtype=np.float64) / 4.0
+
+
+def validate_cfa(cfa: str) -> str:
+    """Return the upper-case pattern or raise ``ValueError`` naming ``cfa``."""
+    if not isinstance(cfa, str):
+        raise TypeError(f"cfa must be a string such as 'RGGB', got {type(cfa).__name__}")
+    pattern = cfa.upper()
+    if pattern not in CFA_PATTERNS:
+        raise ValueError(f"cfa must be one of {', '.join(CFA_PATTERNS)}; got {cfa!r}")
+    return pattern
+
+
+def cfa_channels(cfa: str = "RGGB") -> tuple[int, int, int, int]:
+    """RGB channel index (R=0, G=1, B=2) of each of the four planes.
+
+    >>> cfa_channels("RGGB")
+    (0, 1, 1, 2)
+    >>> cfa_channels("GBRG")
+    (1, 2, 0, 1)
+    """
+    pattern = validate_cfa(cfa)
+    return tuple(_CHANNEL_INDEX[c] for c in pattern)  # type: ignore[return-value]
+
+
+def cfa_channel_map(height: int, width: int, cfa: str = "RGGB") -> np.ndarray:
+    """``(height, width) int8`` array of the RGB channel seen by every pixel."""
+    channels = np.asarray(cfa_channels(cfa), dtype=np.int8).reshape(2, 2)
+    return np.tile(channels, (height // 2 + 1, width // 2 + 1))[:height, :width].copy()
+
+
+def _check_even(shape: tuple[int, ...], name: str) -> None:
+    if len(shape) < 2:
+        raise ValueError(f"{name} must have at least 2 dimensions (..., H, W); got shape {shape}")
+    h, w = shape[-2], shape[-1]
+    if h % 2 or w % 2 or h == 0 or w == 0:
+        raise ValueError(
+            f"{name} must have even, non-zero height and width for a 2×2 Bayer pattern; "
+            f"got H={h}, W={w}"
+        )
+
+
+def bayer_planes(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
+    """Split a mosaic into its four Bayer planes (§4.1, Fig. 3a).
+
+    Parameters
+    ----------
+    mosaic : ndarray, shape ``(..., H, W)``
+        Any dtype.  ``H`` and ``W`` must be even.
+    cfa : str
+        Pattern of the upright image; only validated here, since planes are
+        ordered by position (see module doc and :func:`cfa_channels`).
+
+    Returns
+    -------
+    ndarray, shape ``(..., 4, H/2, W/2)``, same dtype, a new contiguous array.
+    """
+    validate_cfa(cfa)
+    mosaic = np.asarray(mosaic)
+    _check_even(mosaic.shape, "mosaic")
+    planes = [mosaic[..., dy::2, dx::2] for dy in (0, 1) for dx in (0, 1)]
+    return np.ascontiguousarray(np.stack(planes, axis=-3))
+
+
+def bayer_mosaic(planes: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
+    """Inverse of :func:`bayer_planes`: ``(..., 4, h, w)`` → ``(..., 2h, 2w)``."""
+    validate_cfa(cfa)
+    planes = np.asarray(planes)
+    if planes.ndim < 3 or planes.shape[-3] != 4:
+        raise ValueError(f"planes must have shape (..., 4, h, w); got {planes.shape}")
+    h, w = planes.shape[-2:]
+    out = np.empty(planes.shape[:-3] + (2 * h, 2 * w), dtype=planes.dtype)
+    for p in range(4):
+        out[..., p // 2 :: 2, p % 2 :: 2] = planes[..., p, :, :]
+    return out
+
+
+@njit
+def _reflect(i, n):
+    # half-sample symmetric extension: -1 -> 0, n -> n-1 (n >= 1; |offset| <= 1)
+    if i < 0:
+        return -i - 1
+    if i >= n:
+        return 2 * n - i - 1
+    return i
+
+
+@njit(parallel=True)
+def _demosaic_bilinear(mosaics, channel_of_plane, g_kernel, rb_kernel, out):
+    # mosaics (N, H, W) float; out (N, H, W, 3) float; channel_of_plane (4,)
+    n, h, w = mosaics.shape
+    for k in prange(n * h):
+        img = k // h
+        y = k % h
+        for x in range(w):
+            for c in range(3):
+                kern = g_kernel if c == 1 else rb_kernel
+                num = 0.0
+                den = 0.0
+                for dy in range(-1, 2):
+                    yy = _reflect(y + dy, h)
+                    for dx in range(-1, 2):
+                        xx = _reflect(x + dx, w)
+                        if channel_of_plane[(yy % 2) * 2 + (xx % 2)] == c:
+                            wgt = kern[dy + 1, dx + 1]
+                            num += wgt * mosaics[img, yy, xx]
+                            den += wgt
+                out[img, y, x, c] = num / den
+
+
+def demosaic_bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
+    """Bilinear demosaic Ψ (Eq. 13): mosaic ``(..., H, W)`` → RGB ``(..., H, W, 3)``.
+
+    Parameters
+    ----------
+    mosaic : ndarray, shape ``(..., H, W)``, float32 or float64
+        Linear values (firing rates or radiance); integer input is converted
+        to float32.  ``H`` and ``W`` even.
+    cfa : str
+        Pattern of the upright image (``RGGB`` default).
+
+    Returns
+    -------
+    ndarray, shape ``(..., H, W, 3)``, float32 for float32/integer input,
+    float64 for float64 input.
+
+    Notes
+    -----
+    Interpretation (the paper says only "linear interpolation"): the weights
+    are ``[[0,1,0],[1,4,1],[0,1,0]]/4`` (G) and ``[[1,2,1],[2,4,2],[1,2,1]]/4``
+    (R, B), applied as a normalised convolution with half-sample symmetric
+    extension, so border pixels are the weighted mean of the same-colour
+    samples in reach.  The literal oracle is
+    :func:`spikeref.oracles.demosaic_bilinear_oracle`.
+    """
+    channels = np.asarray(cfa_channels(cfa), dtype=np.int64)
+    mosaic = np.asarray(mosaic)
+    _check_even(mosaic.shape, "mosaic")
+    if mosaic.dtype == np.float64:
+        dtype = np.float64
+    elif mosaic.dtype == np.float32 or np.issubdtype(mosaic.dtype, np.integer) or mosaic.dtype == bool:
+        dtype = np.float32
+    else:
+        raise TypeError(f"mosaic must be float32, float64 or integer; got {mosaic.dtype}")
+    lead = mosaic.shape[:-2]
+    h, w = mosaic.shape[-2:]
+    flat = np.ascontiguousarray(mosaic.reshape((-1, h, w)), dtype=dtype)
+    out = np.empty(flat.shape + (3,), dtype=dtype)
+    _demosaic_bilinear(flat, channels, G_KERNEL.astype(dtype), RB_KERNEL.astype(dtype), out)
+    return out.reshape(lead + (h, w, 3))

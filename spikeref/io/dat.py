@@ -1,0 +1,258 @@
+"""The spike-camera ``.dat`` layout, and ``.npy``/``.npz`` spike files.
+
+Layout (the one SpikeCV, Spike-Zoo and Spk2ImgNet read; DESIGN §3)
+-----------------------------------------------------------------
+* no header; the file is a sequence of planes, each ``H·Wf/8`` bytes where
+  ``Wf`` is the stored row width (``Wf = W`` except on cameras that store
+  wider rows, e.g. 1024-wide rows for a 1000×1000 sensor);
+* inside a plane pixels are row-major; pixel ``p`` is bit ``p % 8`` of byte
+  ``p // 8`` (LSB first);
+* rows are stored bottom-up: stored row ``r`` is image row ``H - 1 - r``.
+
+Reading never loads the file: :func:`read_dat` memory-maps it and returns a
+:class:`~spikeref.stream.SpikeStream`; planes are unpacked only when a window
+is asked for, and Eq. 4 counts are taken from the packed bytes directly
+(:func:`spikeref.accumulate.accumulate`).  Writing is atomic: a temporary
+file in the same folder, renamed over the target when complete.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "plane_nbytes",
+    "pack_planes",
+    "unpack_planes",
+    "read_dat",
+    "write_dat",
+    "load_spikes",
+    "save_spikes",
+    "atomic_write",
+]
+
+
+def plane_nbytes(height: int, width: int) -> int:
+    """Bytes of one stored plane, ``height * width / 8``; raises if not whole."""
+    for name, v in (("height", height), ("width", width)):
+        if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
+            raise ValueError(f"{name} must be a positive integer; got {v!r}")
+    if (height * width) % 8:
+        raise ValueError(
+            f"a .dat plane of {height}×{width} pixels is not a whole number of bytes "
+            f"(height*width = {height * width} is not a multiple of 8)"
+        )
+    return height * width // 8
+
+
+def check_spikes(spikes, name: str = "spikes", check_values: bool = True) -> np.ndarray:
+    """Validate a ``(T, H, W)`` array of 0/1 spikes and return it as uint8."""
+    arr = np.asarray(spikes)
+    if arr.ndim != 3:
+        raise ValueError(f"{name} must have shape (T, H, W); got shape {arr.shape}")
+    if arr.dtype == bool:
+        return arr.view(np.uint8)
+    if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+        raise TypeError(f"{name} must be uint8 0/1 (or bool/integer 0/1); got dtype {arr.dtype}")
+    if check_values and arr.size:
+        if arr.dtype == np.uint8:
+            bad = arr.max() > 1
+        else:
+            bad = bool(np.any((arr != 0) & (arr != 1)))
+        if bad:
+            raise ValueError(f"{name} must contain only 0 and 1 (one bit per pixel and readout)")
+    return arr.astype(np.uint8, copy=False)
+
+
+def pack_planes(spikes: np.ndarray) -> np.ndarray:
+    """Pack ``(T, H, W)`` 0/1 planes into the ``.dat`` byte layout ``(T, H*W/8) uint8``."""
+    spikes = check_spikes(spikes)
+    t, h, w = spikes.shape
+    plane_nbytes(h, w)
+    flipped = spikes[:, ::-1, :].reshape(t, h * w)
+    return np.packbits(flipped, axis=1, bitorder="little")
+
+
+def unpack_planes(
+    packed: np.ndarray, height: int, width: int, file_width: int | None = None, col_offset: int = 0
+) -> np.ndarray:
+    """Inverse of :func:`pack_planes`: ``(T, H*Wf/8) uint8`` → upright ``(T, H, W) uint8``.
+
+    ``file_width`` (default ``width``) is the stored row width; columns
+    ``[col_offset, col_offset + width)`` of each stored row are kept.
+    """
+    file_width = width if file_width is None else file_width
+    nbytes = plane_nbytes(height, file_width)
+    packed = np.asarray(packed)
+    if packed.ndim != 2 or packed.shape[1] != nbytes:
+        raise ValueError(f"packed must have shape (T, {nbytes}); got {packed.shape}")
+    bits = np.unpackbits(packed, axis=1, bitorder="little").reshape(-1, height, file_width)
+    return np.ascontiguousarray(bits[:, ::-1, col_offset : col_offset + width])
+
+
+def atomic_write(path, write_fn) -> Path:
+    """Call ``write_fn(tmp_path)`` then rename ``tmp_path`` over ``path``.
+
+    The temporary file lives in the target's folder (so the rename is atomic
+    on POSIX) and is removed if ``write_fn`` raises: no partial file is left.
+    """
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    if not directory.is_dir():
+        raise FileNotFoundError(f"output folder does not exist: {directory}")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part" + path.suffix, dir=directory)
+    os.close(fd)
+    try:
+        write_fn(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
+def read_dat(
+    path,
+    height: int = 250,
+    width: int = 400,
+    cfa: str | None = None,
+    *,
+    file_width: int | None = None,
+    col_offset: int = 0,
+    rate_hz: float = 20000.0,
+):
+    """Memory-map a ``.dat`` spike file as a :class:`~spikeref.stream.SpikeStream`.
+
+    Parameters
+    ----------
+    path : str or Path
+    height, width : int
+        Image size in pixels (the file has no header; 250×400 classic mono
+        cameras, 1000×1000 colour cameras).
+    cfa : str or None
+        Bayer pattern of the upright image (``RGGB``…); ``None`` for mono.
+    file_width : int, optional
+        Stored row width when rows are wider than the image (e.g. 1024);
+        columns ``[col_offset, col_offset + width)`` are kept.
+    rate_hz : float
+        Readout rate, planes per second (20 000 for the spike camera).
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        The message names the file, the expected plane size and the size found.
+    """
+    from spikeref.stream import SpikeStream
+
+    path = Path(path)
+    file_width = width if file_width is None else file_width
+    if file_width < width + col_offset or col_offset < 0:
+        raise ValueError(
+            f"file_width ({file_width}) must be at least width + col_offset ({width} + {col_offset})"
+        )
+    nbytes = plane_nbytes(height, file_width)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such .dat file: {path}")
+    size = path.stat().st_size
+    if size == 0:
+        raise ValueError(f"{path}: the file is empty (expected planes of {nbytes} bytes)")
+    if size % nbytes:
+        raise ValueError(
+            f"{path}: size {size} bytes is not a whole number of {height}×{file_width} planes "
+            f"({nbytes} bytes each; {size // nbytes} whole planes and {size % nbytes} bytes left over). "
+            "Check --height/--width (and --file-width for cameras with padded rows)."
+        )
+    packed = np.memmap(path, dtype=np.uint8, mode="r", shape=(size // nbytes, nbytes))
+    return SpikeStream.from_packed(
+        packed,
+        height=height,
+        width=width,
+        file_width=file_width,
+        col_offset=col_offset,
+        cfa=cfa,
+        rate_hz=rate_hz,
+        path=path,
+    )
+
+
+def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
+    """Write spikes in the ``.dat`` layout, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+    spikes : ndarray ``(T, H, W)`` 0/1, or a SpikeStream
+        A stream is written window by window (memory bounded by
+        ``chunk_planes``); a packed stream with the same layout is copied as is.
+    """
+    from spikeref.stream import SpikeStream
+
+    if isinstance(spikes, SpikeStream):
+        stream = spikes
+    else:
+        stream = SpikeStream.from_array(check_spikes(spikes))
+    plane_nbytes(stream.height, stream.width)
+
+    def _write(tmp):
+        with open(tmp, "wb") as fh:
+            for start in range(0, len(stream), chunk_planes):
+                n = min(chunk_planes, len(stream) - start)
+                fh.write(pack_planes(stream.window(start, n)).tobytes())
+
+    return atomic_write(path, _write)
+
+
+def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, **kw):
+    """Open a spike file by its suffix: ``.dat`` (memory-mapped), ``.npy`` or ``.npz``.
+
+    ``.npy`` holds a ``(T, H, W)`` array; ``.npz`` a key ``spikes`` (or a
+    single array).  For ``.dat`` the size must be given (defaults 250×400).
+    """
+    from spikeref.stream import SpikeStream
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if not path.is_file():
+        raise FileNotFoundError(f"no such spike file: {path}")
+    if suffix == ".dat":
+        return read_dat(path, height or 250, width or 400, cfa, **kw)
+    if suffix == ".npy":
+        arr = np.load(path, mmap_mode="r")
+    elif suffix == ".npz":
+        with np.load(path) as data:
+            keys = list(data.files)
+            key = "spikes" if "spikes" in keys else (keys[0] if len(keys) == 1 else None)
+            if key is None:
+                raise ValueError(f"{path}: expected a key 'spikes' or a single array; found keys {keys}")
+            arr = data[key]
+    else:
+        raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")
+    arr = check_spikes(arr, name=f"spikes in {path.name}")
+    return SpikeStream.from_array(arr, cfa=cfa, path=path, **{k: v for k, v in kw.items() if k == "rate_hz"})
+
+
+def save_spikes(path, spikes) -> Path:
+    """Save spikes as ``.dat``, ``.npy`` or ``.npz`` (key ``spikes``), atomically."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix == ".dat":
+        return write_dat(path, spikes)
+    arr = check_spikes(spikes if isinstance(spikes, np.ndarray) else spikes.window(0, len(spikes)))
+    if suffix in (".npy", ".npz"):
+
+        def _write(tmp):
+            with open(tmp, "wb") as fh:
+                if suffix == ".npy":
+                    np.save(fh, arr)
+                else:
+                    np.savez_compressed(fh, spikes=arr)
+
+        return atomic_write(path, _write)
+    raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")

@@ -1,0 +1,180 @@
+"""``SpikeStream``: a spike recording held in memory or memory-mapped.
+
+A stream is a sequence of binary planes ``S(x, τ)`` read out at ``rate_hz``
+(20 000 planes/s for the spike camera, §3).  In memory it is a ``(T, H, W)
+uint8`` array of 0/1, row 0 at the top.  From a ``.dat`` file it is the
+memory-mapped packed bytes ``(T, H*Wf/8) uint8`` (see :mod:`spikeref.io.dat`):
+nothing is read until a window is asked for, so a 25 GB recording opens
+instantly and is read one window at a time.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from spikeref.bayer import validate_cfa
+
+__all__ = ["SpikeStream", "as_stream"]
+
+
+class SpikeStream:
+    """Binary spike planes with their geometry, colour pattern and clock.
+
+    Build one with :meth:`from_array`, :meth:`from_packed` or
+    :func:`spikeref.read_dat`.
+
+    Attributes
+    ----------
+    height, width : int
+        Upright image size in pixels.
+    cfa : str or None
+        Bayer pattern (``RGGB``…) of the upright image, ``None`` for mono.
+    rate_hz : float
+        Readout rate in planes per second.
+    path : Path or None
+        The file the stream was read from, if any.
+    """
+
+    def __init__(
+        self,
+        *,
+        array: np.ndarray | None,
+        packed: np.ndarray | None,
+        height: int,
+        width: int,
+        file_width: int,
+        col_offset: int,
+        cfa: str | None,
+        rate_hz: float,
+        path: Path | None,
+    ):
+        if (array is None) == (packed is None):
+            raise ValueError("exactly one of array and packed must be given")
+        if cfa is not None:
+            cfa = validate_cfa(cfa)
+        if not np.isfinite(rate_hz) or rate_hz <= 0:
+            raise ValueError(f"rate_hz must be a positive number of planes per second; got {rate_hz!r}")
+        self._array = array
+        self._packed = packed
+        self.height = int(height)
+        self.width = int(width)
+        self.file_width = int(file_width)
+        self.col_offset = int(col_offset)
+        self.cfa = cfa
+        self.rate_hz = float(rate_hz)
+        self.path = Path(path) if path is not None else None
+
+    # ------------------------------------------------------------------ build
+    @classmethod
+    def from_array(cls, spikes, cfa: str | None = None, rate_hz: float = 20000.0, path=None, check: bool = True):
+        """Wrap a ``(T, H, W)`` array of 0/1 (uint8 or bool); no copy when uint8."""
+        from spikeref.io.dat import check_spikes
+
+        arr = check_spikes(spikes, check_values=check)
+        _, h, w = arr.shape
+        return cls(
+            array=arr, packed=None, height=h, width=w, file_width=w, col_offset=0,
+            cfa=cfa, rate_hz=rate_hz, path=path,
+        )
+
+    @classmethod
+    def from_packed(
+        cls, packed, height: int, width: int, file_width: int | None = None, col_offset: int = 0,
+        cfa: str | None = None, rate_hz: float = 20000.0, path=None,
+    ):
+        """Wrap packed ``.dat`` bytes ``(T, H*Wf/8) uint8`` (a memmap or an array)."""
+        from spikeref.io.dat import plane_nbytes
+
+        file_width = width if file_width is None else file_width
+        nbytes = plane_nbytes(height, file_width)
+        packed = np.asarray(packed) if not isinstance(packed, np.memmap) else packed
+        if packed.dtype != np.uint8 or packed.ndim != 2 or packed.shape[1] != nbytes:
+            raise ValueError(f"packed must be uint8 of shape (T, {nbytes}); got {packed.dtype} {packed.shape}")
+        return cls(
+            array=None, packed=packed, height=height, width=width, file_width=file_width,
+            col_offset=col_offset, cfa=cfa, rate_hz=rate_hz, path=path,
+        )
+
+    # ------------------------------------------------------------- properties
+    def __len__(self) -> int:
+        data = self._array if self._array is not None else self._packed
+        return int(data.shape[0])
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        """``(T, H, W)``."""
+        return (len(self), self.height, self.width)
+
+    @property
+    def duration_s(self) -> float:
+        """Recording length in seconds, ``T / rate_hz``."""
+        return len(self) / self.rate_hz
+
+    @property
+    def is_packed(self) -> bool:
+        """True when the planes are packed ``.dat`` bytes (e.g. memory-mapped)."""
+        return self._packed is not None
+
+    @property
+    def packed(self) -> np.ndarray | None:
+        """The packed bytes ``(T, H*Wf/8)`` or ``None`` for an in-memory array."""
+        return self._packed
+
+    @property
+    def array(self) -> np.ndarray | None:
+        """The unpacked ``(T, H, W) uint8`` array or ``None`` for a packed stream."""
+        return self._array
+
+    def __repr__(self) -> str:
+        where = f" from {self.path.name}" if self.path else ""
+        kind = "packed" if self.is_packed else "array"
+        return (
+            f"SpikeStream({len(self)} planes of {self.height}×{self.width}, cfa={self.cfa}, "
+            f"{self.rate_hz:g} Hz, {kind}{where})"
+        )
+
+    # ---------------------------------------------------------------- access
+    def _check_range(self, start: int, length: int) -> None:
+        if not isinstance(start, (int, np.integer)) or not isinstance(length, (int, np.integer)):
+            raise TypeError(f"start and length must be integers; got {start!r}, {length!r}")
+        if length < 1:
+            raise ValueError(f"length must be at least 1 plane; got {length}")
+        if start < 0 or start + length > len(self):
+            raise ValueError(
+                f"planes [{start}, {start + length}) are outside the stream of {len(self)} planes"
+            )
+
+    def window(self, start: int, length: int) -> np.ndarray:
+        """Planes ``[start, start + length)`` as an upright ``(length, H, W) uint8`` array.
+
+        For a packed stream only those planes are read and unpacked.
+        """
+        self._check_range(start, length)
+        if self._array is not None:
+            return self._array[start : start + length]
+        from spikeref.io.dat import unpack_planes
+
+        return unpack_planes(
+            np.asarray(self._packed[start : start + length]),
+            self.height, self.width, self.file_width, self.col_offset,
+        )
+
+    def windows(self, length: int, start: int = 0) -> Iterator[np.ndarray]:
+        """Iterate over consecutive whole windows ``[start + kW, start + (k+1)W)``."""
+        if not isinstance(length, (int, np.integer)) or length < 1:
+            raise ValueError(f"window length must be a positive integer; got {length!r}")
+        for s in range(start, len(self) - length + 1, length):
+            yield self.window(s, length)
+
+    def __iter__(self):
+        raise TypeError("iterate over stream.windows(W) (planes are read one window at a time)")
+
+
+def as_stream(spikes, cfa: str | None = None) -> SpikeStream:
+    """Return ``spikes`` if it is a stream, else wrap a ``(T, H, W)`` array."""
+    if isinstance(spikes, SpikeStream):
+        return spikes
+    return SpikeStream.from_array(spikes, cfa=cfa)
