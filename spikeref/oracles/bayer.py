@@ -1,0 +1,46 @@
+"""Oracles for the Bayer split and the bilinear demosaic Ψ (Eq. 13)."""
+
+import numpy as np
+
+__all__ = ["bayer_planes_oracle", "demosaic_bilinear_oracle"]
+
+_COLOUR = {"R": 0, "G": 1, "B": 2}
+
+
+def bayer_planes_oracle(mosaic):
+    """``planes[p, i, j] = mosaic[2i + p // 2, 2j + p % 2]`` for a 2-D mosaic."""
+    h, w = mosaic.shape
+    planes = np.zeros((4, h // 2, w // 2), dtype=mosaic.dtype)
+    for p in range(4):
+        for i in range(h // 2):
+            for j in range(w // 2):
+                planes[p, i, j] = mosaic[2 * i + p // 2, 2 * j + p % 2]
+    return planes
+
+
+def demosaic_bilinear_oracle(mosaic, cfa="RGGB"):
+    """Ψ, pixel by pixel: the weighted mean of the same-colour samples in the 3×3 window.
+
+    Weights ``[[0,1,0],[1,4,1],[0,1,0]]`` for G and ``[[1,2,1],[2,4,2],[1,2,1]]``
+    for R/B; outside the image the mosaic is mirrored half-sample
+    symmetrically (index −1 reads 0, index H reads H−1).  Float64 throughout.
+    """
+    h, w = mosaic.shape
+    colour_at = lambda y, x: _COLOUR[cfa[(y % 2) * 2 + (x % 2)]]  # noqa: E731
+    mirror = lambda i, n: -i - 1 if i < 0 else (2 * n - i - 1 if i >= n else i)  # noqa: E731
+    g_weights = [[0, 1, 0], [1, 4, 1], [0, 1, 0]]
+    rb_weights = [[1, 2, 1], [2, 4, 2], [1, 2, 1]]
+    rgb = np.zeros((h, w, 3), dtype=np.float64)
+    for y in range(h):
+        for x in range(w):
+            for c in range(3):
+                weights = g_weights if c == 1 else rb_weights
+                total, norm = 0.0, 0.0
+                for dy in (-1, 0, 1):
+                    for dx in (-1, 0, 1):
+                        yy, xx = mirror(y + dy, h), mirror(x + dx, w)
+                        if colour_at(yy, xx) == c:
+                            total += weights[dy + 1][dx + 1] * float(mosaic[yy, xx])
+                            norm += weights[dy + 1][dx + 1]
+                rgb[y, x, c] = total / norm
+    return rgb

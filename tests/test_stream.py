@@ -1,0 +1,44 @@
+import numpy as np
+import pytest
+
+from spikeref.io.dat import pack_planes
+from spikeref.stream import SpikeStream, as_stream
+
+
+def test_array_stream_basics(rng):
+    spikes = (rng.random((25, 4, 6)) < 0.5).astype(np.uint8)
+    s = SpikeStream.from_array(spikes, cfa="bggr", rate_hz=10000)
+    assert (len(s), s.height, s.width, s.cfa, s.rate_hz) == (25, 4, 6, "BGGR", 10000.0)
+    assert s.duration_s == pytest.approx(25 / 10000)
+    assert not s.is_packed and "25 planes of 4×6" in repr(s)
+    windows = list(s.windows(10))
+    assert len(windows) == 2
+    np.testing.assert_array_equal(windows[1], spikes[10:20])
+    assert as_stream(s) is s
+
+
+def test_packed_stream_windows_equal_array_windows(rng):
+    spikes = (rng.random((12, 4, 6)) < 0.5).astype(np.uint8)
+    s = SpikeStream.from_packed(pack_planes(spikes), 4, 6)
+    for w in s.windows(4):
+        assert w.shape == (4, 4, 6)
+    np.testing.assert_array_equal(np.concatenate(list(s.windows(4))), spikes)
+
+
+@pytest.mark.parametrize(
+    "start, length, match",
+    [(-1, 2, "outside the stream"), (0, 0, "at least 1"), (10, 5, "outside the stream of 12"), (0.5, 2, "integers")],
+)
+def test_window_range_errors(start, length, match):
+    s = SpikeStream.from_array(np.zeros((12, 2, 2), np.uint8))
+    with pytest.raises((ValueError, TypeError), match=match):
+        s.window(start, length)
+
+
+def test_constructor_errors():
+    with pytest.raises(ValueError, match="rate_hz"):
+        SpikeStream.from_array(np.zeros((1, 2, 2), np.uint8), rate_hz=0)
+    with pytest.raises(ValueError, match="packed must be uint8 of shape"):
+        SpikeStream.from_packed(np.zeros((3, 5), np.uint8), 4, 8)
+    with pytest.raises(TypeError, match="windows"):
+        iter(SpikeStream.from_array(np.zeros((1, 2, 2), np.uint8)))
