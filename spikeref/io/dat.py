@@ -18,11 +18,11 @@ file in the same folder, renamed over the target when complete.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from spikeref.io.atomic import atomic_write
 
 __all__ = [
     "plane_nbytes",
@@ -32,7 +32,6 @@ __all__ = [
     "write_dat",
     "load_spikes",
     "save_spikes",
-    "atomic_write",
 ]
 
 
@@ -92,30 +91,6 @@ def unpack_planes(
         raise ValueError(f"packed must have shape (T, {nbytes}); got {packed.shape}")
     bits = np.unpackbits(packed, axis=1, bitorder="little").reshape(-1, height, file_width)
     return np.ascontiguousarray(bits[:, ::-1, col_offset : col_offset + width])
-
-
-def atomic_write(path, write_fn) -> Path:
-    """Call ``write_fn(tmp_path)`` then rename ``tmp_path`` over ``path``.
-
-    The temporary file lives in the target's folder (so the rename is atomic
-    on POSIX) and is removed if ``write_fn`` raises: no partial file is left.
-    """
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
-    if not directory.is_dir():
-        raise FileNotFoundError(f"output folder does not exist: {directory}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part" + path.suffix, dir=directory)
-    os.close(fd)
-    try:
-        write_fn(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return path
 
 
 def read_dat(
