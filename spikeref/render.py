@@ -1,0 +1,145 @@
+"""Turn a stream of linear frames into files: an MP4/GIF and EXR frames.
+
+:class:`FrameSink` writes linear frames as they come: EXR frames (HDR,
+unclipped) named by frame index, and a display video through one fixed
+exposure chosen from the first frames (so the video does not flicker).
+:func:`render_baseline` drives a baseline over a stream, chunk by chunk,
+with a progress bar; memory does not grow with the recording.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from spikeref.io.exr import write_exr
+from spikeref.io.video import VideoWriter
+from spikeref.tonemap import Exposure, choose_exposure, tonemap
+
+__all__ = ["FrameSink", "baseline_frames", "render_baseline", "exr_name"]
+
+
+def exr_name(index: int) -> str:
+    """File name of output frame ``index`` in an EXR folder."""
+    return f"frame_{index:06d}.exr"
+
+
+class FrameSink:
+    """Write linear frames ``(H, W, 3)`` or ``(H, W)`` to a video and/or EXR files.
+
+    Parameters
+    ----------
+    video : path or None
+        ``.mp4`` / ``.gif`` output (display-encoded with one exposure).
+    exr_dir : path or None
+        Folder for ``frame_NNNNNN.exr`` (created if missing).
+    fps : float
+        Playback rate of the video file.
+    exposure : Exposure or None
+        Fixed exposure; by default chosen from the first ``exposure_frames``
+        frames (99.5th percentile → 0.9 of white).
+    half : bool
+        float16 EXR instead of float32.
+    """
+
+    def __init__(self, video=None, exr_dir=None, fps: float = 30.0, exposure: Exposure | None = None,
+                 exposure_frames: int = 16, half: bool = False):
+        if video is None and exr_dir is None:
+            raise ValueError("give a video path, an EXR folder, or both")
+        self.exr_dir = Path(exr_dir) if exr_dir is not None else None
+        if self.exr_dir is not None:
+            if self.exr_dir.exists() and not self.exr_dir.is_dir():
+                raise NotADirectoryError(f"EXR output is not a folder: {self.exr_dir}")
+            self.exr_dir.mkdir(parents=True, exist_ok=True)
+        self._video = VideoWriter(video, fps) if video is not None else None
+        self.exposure = exposure
+        self._pending: list[tuple[int, np.ndarray]] = []
+        self._exposure_frames = max(1, int(exposure_frames))
+        self.half = half
+        self.count = 0
+
+    def add(self, index: int, frame: np.ndarray) -> None:
+        """Add output frame number ``index`` (linear float)."""
+        if self.exr_dir is not None:
+            write_exr(self.exr_dir / exr_name(index), frame, half=self.half)
+        if self._video is None:
+            self.count += 1
+            return
+        if self.exposure is None:
+            self._pending.append((index, frame))
+            if len(self._pending) >= self._exposure_frames:
+                self._flush()
+        else:
+            self._video.append(tonemap(frame, self.exposure))
+        self.count += 1
+
+    def _flush(self) -> None:
+        if self.exposure is None:
+            self.exposure = choose_exposure(np.stack([f for _, f in self._pending]))
+        for _, f in self._pending:
+            self._video.append(tonemap(f, self.exposure))
+        self._pending.clear()
+
+    def close(self) -> None:
+        if self._video is not None:
+            if self._pending:
+                self._flush()
+            self._video.close()
+
+    def abort(self) -> None:
+        if self._video is not None:
+            self._video.abort()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+        return False
+
+
+def baseline_frames(stream, method: str, window: int = 10, every: int | None = None,
+                    chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
+    """Yield ``(index, frame)`` of a baseline over a stream, colour (Ψ) when the stream has a CFA."""
+    from spikeref import baselines
+    from spikeref.bayer import demosaic_bilinear
+
+    if method not in baselines.BASELINES:
+        raise ValueError(f"unknown baseline {method!r}; choose one of {', '.join(baselines.BASELINES)}")
+    finish = (lambda f: demosaic_bilinear(f, stream.cfa)) if stream.cfa else (lambda f: f)
+    if method == "tfp":
+        n_total = len(stream) // window
+        if n_total < 1:
+            raise ValueError(f"window={window} is longer than the stream ({len(stream)} planes)")
+        for first in range(0, n_total, chunk_frames):
+            n = min(chunk_frames, n_total - first)
+            frames = finish(baselines.tfp(stream, window, start=first * window, count=n))
+            for i in range(n):
+                yield first + i, frames[i]
+        return
+    yield from baselines.streamed_baseline(stream, method, every or window, finish, chunk_frames)
+
+
+def render_baseline(stream, method: str, video, exr_dir=None, window: int = 10, every: int | None = None,
+                    fps: float = 30.0, half: bool = False, progress: bool = True) -> int:
+    """Run a baseline over ``stream`` and write ``video`` (+ EXR frames). Returns the frame count."""
+    from tqdm import tqdm
+
+    if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
+        raise ValueError(f"window must be a positive number of planes; got {window!r}")
+    step = every or window
+    if not isinstance(step, (int, np.integer)) or step < 1:
+        raise ValueError(f"every must be a positive number of planes; got {every!r}")
+    total = len(stream) // window if method == "tfp" else None
+    with FrameSink(video, exr_dir, fps=fps, half=half) as sink:
+        bar = tqdm(total=total, desc=method.upper(), unit="frame", disable=not progress or None)
+        for index, frame in baseline_frames(stream, method, window, every):
+            sink.add(index, frame)
+            bar.update(1)
+        bar.close()
+    return sink.count
