@@ -3,26 +3,67 @@
 * **TFP** — texture from playback (Zhu et al. 2019): the firing rate over a
   window, i.e. Eq. 4 with ``M_c = 1``.
 * **TFI** — texture from inter-spike intervals (Zhu et al. 2019): the inverse
-  of the interval between the spikes around time ``t``.
-* **TFSTP** — texture from short-term plasticity (Zheng et al. 2023): the
-  steady state of a Tsodyks–Markram synapse driven by each pixel's spikes.
+  of the interval between the two spikes around time ``t``.
+* **TFSTP** — texture from short-term plasticity (Zheng et al. 2023): a
+  Tsodyks–Markram synapse per pixel, driven by its spikes; the firing rate is
+  read back from the synapse's steady-state relations.
 
-They are defined for monochrome streams.  For a Bayer stream
-(:func:`bayer_baseline`) each is applied to the mosaic — every pixel on its
-own, so per Bayer plane — and the result demosaicked with Ψ, as the paper
-does to compare them on chromatic spikes.
+All three are defined for monochrome streams and return **linear rates in
+spikes per readout** (``[0, 1]``), so they can be compared with each other
+and with the method.  For a Bayer stream each pixel is processed on its own
+(so per Bayer plane) and the result is demosaicked with Ψ
+(:func:`bayer_baseline`), as the paper does in Table 1.
+
+Compatibility with SpikeCV (``spkProc/reconstruction``), stated so results
+can be compared with that library:
+
+* SpikeCV's TFP frame at ``t`` with half window ``h`` is
+  ``255 · tfp(spikes, 2h + 1, start=t - h, count=1)``.
+* SpikeCV's TFI image is ``255 / interval`` cast to ``uint8``, where the
+  interval at ``t`` is the one that ends at the first spike at or after ``t``,
+  and 257 where no spike precedes it or none follows: ``255 · tfi`` here.
+* SpikeCV's TFSTP image is the *sum* of the two rate estimates, min–max
+  normalised and histogram-equalised for display; here it is their *mean*,
+  kept linear.  SpikeCV's code writes ``F`` for ``f`` in the facilitation
+  estimate; the paper's relation (with ``f``) is used here.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Callable, Iterator
+
 import numpy as np
 
+from spikeref._jit import njit, prange
 from spikeref.accumulate import accumulate
 from spikeref.bayer import demosaic_bilinear
+from spikeref.stream import SpikeStream, as_stream
 
-__all__ = ["tfp", "bayer_baseline", "BASELINES"]
+__all__ = [
+    "tfp",
+    "tfi",
+    "tfstp",
+    "STPParams",
+    "TFSTPState",
+    "TFI_BOUNDARY_INTERVAL",
+    "TFI_MAX_INTERVAL",
+    "bayer_baseline",
+    "streamed_baseline",
+    "BASELINES",
+]
+
+BASELINES = ("tfp", "tfi", "tfstp")
+
+#: Interval (readouts) SpikeCV uses where no spike precedes or follows ``t``.
+TFI_BOUNDARY_INTERVAL = 257
+#: Longest interval TFI resolves; longer ones count as unknown (rate 1/257).
+#: SpikeCV's uint8 output is 0 for any interval ≥ 256, so this changes none of
+#: its values, and it makes chunked processing exact with a 256-plane margin.
+TFI_MAX_INTERVAL = 256
 
 
+# ----------------------------------------------------------------------------- TFP
 def tfp(spikes, window: int, start: int = 0, count: int | None = None) -> np.ndarray:
     """TFP: firing rate of each pixel over consecutive windows of ``window`` planes.
 
@@ -31,22 +72,254 @@ def tfp(spikes, window: int, start: int = 0, count: int | None = None) -> np.nda
     spikes : SpikeStream or ndarray ``(T, H, W)`` uint8 0/1
     window : int
         Planes per window; frame ``k`` covers ``[start + kW, start + (k+1)W)``.
+    start, count : int
+        First plane, number of frames (default: all whole windows).
 
     Returns
     -------
-    ndarray ``(count, H, W) float32`` in ``[0, 1]`` (spikes per readout).
-
-    Notes
-    -----
-    SpikeCV's ``TFP.spikes2images`` averages ``2h+1`` planes centred on each
-    output time; ``tfp(spikes, 2h+1, start=t-h, count=1)`` is that frame.
+    ndarray ``(count, H, W) float32`` in ``[0, 1]`` (spikes per readout); Eq. 4 with ``M_c = 1``.
     """
     return accumulate(spikes, window, start=start, count=count)
 
 
+# ----------------------------------------------------------------------------- TFI
+def _times_array(times, n_planes: int, name: str = "times") -> np.ndarray:
+    if times is None:
+        return np.arange(n_planes, dtype=np.int64)
+    t = np.asarray(times)
+    if t.ndim != 1 or not np.issubdtype(t.dtype, np.integer):
+        raise TypeError(f"{name} must be a 1-D sequence of integer plane indices")
+    if t.size == 0:
+        raise ValueError(f"{name} is empty")
+    if np.any(np.diff(t) < 0):
+        raise ValueError(f"{name} must be sorted in increasing order")
+    if t[0] < 0 or t[-1] >= n_planes:
+        raise ValueError(f"{name} must lie in [0, {n_planes}); got {t[0]}…{t[-1]}")
+    return t.astype(np.int64)
+
+
+@njit(parallel=True)
+def _tfi(spikes, plane0, times, max_interval, boundary, out):
+    # spikes (n, H, W) = planes [plane0, plane0 + n) of the stream; times sorted absolute indices.
+    # For t: n = first spike >= t, p = last spike < n; rate = 1/(n - p), or 1/boundary when p or n
+    # does not exist or n - p > max_interval.
+    n_planes, h, w = spikes.shape
+    n_times = times.shape[0]
+    for y in prange(h):
+        last = np.full(w, -1, dtype=np.int64)  # last spike seen by each pixel (-1: none)
+        k = np.zeros(w, dtype=np.int64)  # next requested time each pixel still has to fill
+        for i in range(n_planes):
+            t = plane0 + i
+            for x in range(w):
+                if spikes[i, y, x]:
+                    p = last[x]
+                    interval = boundary
+                    if p >= 0 and t - p <= max_interval:
+                        interval = t - p
+                    kk = k[x]
+                    while kk < n_times and times[kk] <= t:
+                        out[kk, y, x] = 1.0 / interval
+                        kk += 1
+                    k[x] = kk
+                    last[x] = t
+        for x in range(w):
+            for kk in range(k[x], n_times):
+                out[kk, y, x] = 1.0 / boundary
+
+
+def tfi(spikes, times=None) -> np.ndarray:
+    """TFI: ``1 / ISI`` at each requested plane (Zhu et al. 2019; SpikeCV's convention).
+
+    Parameters
+    ----------
+    spikes : SpikeStream or ndarray ``(T, H, W)`` uint8 0/1
+    times : sequence of int, optional
+        Sorted plane indices to reconstruct (default: every plane).
+
+    Returns
+    -------
+    ndarray ``(len(times), H, W) float32``: spikes per readout, ``1 / interval``
+    where the interval (in readouts) is the one ending at the first spike at or
+    after ``t``.  Where no spike precedes that spike, none follows ``t``, or the
+    interval exceeds :data:`TFI_MAX_INTERVAL`, the interval is 257 (SpikeCV's
+    boundary value), i.e. a rate of ``1/257``.  Never NaN or inf.
+
+    Notes
+    -----
+    Only planes ``[min(times) − 256, max(times) + 257)`` are read, so a packed
+    stream can be processed in chunks with identical results.
+    """
+    stream = as_stream(spikes)
+    t = _times_array(times, len(stream))
+    lo = max(0, int(t[0]) - TFI_MAX_INTERVAL)
+    hi = min(len(stream), int(t[-1]) + TFI_MAX_INTERVAL + 1)
+    planes = np.ascontiguousarray(stream.window(lo, hi - lo))
+    out = np.empty((t.size, stream.height, stream.width), dtype=np.float32)
+    _tfi(planes, lo, t, TFI_MAX_INTERVAL, TFI_BOUNDARY_INTERVAL, out)
+    return out
+
+
+# --------------------------------------------------------------------------- TFSTP
+@dataclass(frozen=True)
+class STPParams:
+    """Tsodyks–Markram synapse parameters of TFSTP (SpikeCV's defaults).
+
+    Attributes
+    ----------
+    u0 : float
+        Resting release probability ``U`` (0 < u0 < 1).
+    D : float
+        Depression (recovery) time constant, in readouts.
+    F : float
+        Facilitation time constant, in readouts.
+    f : float
+        Facilitation increment per spike (0 < f < 1).
+    """
+
+    u0: float = 0.15
+    D: float = 1.0
+    F: float = 10.0
+    f: float = 0.15
+
+    def __post_init__(self):
+        for name in ("u0", "f"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and 0 < v < 1):
+                raise ValueError(f"{name} must lie in (0, 1); got {v!r}")
+        for name in ("D", "F"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive time constant in readouts; got {v!r}")
+
+
+class TFSTPState:
+    """Per-pixel synapse state ``R``, ``u`` and the time of the last spike (+1), float64.
+
+    Starts at ``R = 1``, ``u = u0``, no spike (SpikeCV's initial state).  TFSTP
+    is causal, so a stream processed chunk by chunk with one state gives the
+    same frames as one pass.
+    """
+
+    def __init__(self, height: int, width: int, params: STPParams = STPParams()):
+        self.params = params
+        self.R = np.ones((height, width), dtype=np.float64)
+        self.u = np.full((height, width), params.u0, dtype=np.float64)
+        self.last = np.zeros((height, width), dtype=np.int64)  # (index of last spike) + 1; 0 = none
+        self.next_plane = 0
+
+
+@njit
+def _stp_rate(R, u, u0, D, F, f):
+    # Invert the steady-state relations for a constant interval Δ (Zheng et al. 2023):
+    #   exp(-Δ/F) = (u - u0) / (u + f(1 - u) - u0),   exp(-Δ/D) = (1 - R) / (1 - R(1 - u))
+    # and return the mean of the two rate estimates 1/Δ (0 where no spike has been seen).
+    rate = 0.0
+    a = u - u0
+    b = u + f * (1.0 - u) - u0
+    if a > 0.0 and b > 0.0:
+        ratio = a / b
+        if ratio < 1.0:
+            rate += -1.0 / (F * np.log(ratio))
+    c = 1.0 - R
+    d = 1.0 - R * (1.0 - u)
+    if c > 0.0 and d > 0.0:
+        ratio = c / d
+        if ratio < 1.0:
+            rate += -1.0 / (D * np.log(ratio))
+    rate *= 0.5
+    if rate > 1.0:
+        rate = 1.0
+    return rate
+
+
+@njit(parallel=True)
+def _tfstp(spikes, plane0, times, u0, D, F, f, R, u, last, out):
+    n_planes, h, w = spikes.shape
+    n_times = times.shape[0]
+    for y in prange(h):
+        k = 0
+        for i in range(n_planes):
+            t = plane0 + i
+            for x in range(w):
+                if spikes[i, y, x]:
+                    dt = (t + 1) - last[y, x]
+                    r_old = R[y, x]
+                    u_old = u[y, x]
+                    R[y, x] = 1.0 - (1.0 - r_old * (1.0 - u_old)) * np.exp(-dt / D)
+                    u[y, x] = u0 + (u_old + f * (1.0 - u_old) - u0) * np.exp(-dt / F)
+                    last[y, x] = t + 1
+            while k < n_times and times[k] == t:
+                for x in range(w):
+                    out[k, y, x] = _stp_rate(R[y, x], u[y, x], u0, D, F, f)
+                k += 1
+
+
+def tfstp(spikes, times=None, params: STPParams = STPParams(), state: TFSTPState | None = None) -> np.ndarray:
+    """TFSTP: firing rate read from a short-term-plasticity synapse per pixel (Zheng et al. 2023).
+
+    At every spike (interval ``Δt`` readouts since the previous one, or since
+    the start of the stream for the first) the synapse is updated with the
+    *previous* ``u``::
+
+        R ← 1 − (1 − R (1 − u)) · exp(−Δt / D)
+        u ← u0 + (u + f (1 − u) − u0) · exp(−Δt / F)
+
+    and at an output time the rate is the mean of the two estimates ``1/Δ``
+    obtained by inverting these relations at their fixed point.
+
+    Parameters
+    ----------
+    spikes : SpikeStream or ndarray ``(T, H, W)`` uint8 0/1
+    times : sequence of int, optional
+        Sorted plane indices to output, after that plane's update (default all).
+    params : STPParams
+        ``u0 = 0.15, D = 1, F = 10, f = 0.15`` (SpikeCV's defaults; time in readouts).
+    state : TFSTPState, optional
+        Continue from this state (for chunked processing); it is updated in
+        place.  Without it the synapses start at rest at plane 0.
+
+    Returns
+    -------
+    ndarray ``(len(times), H, W) float32`` in ``[0, 1]`` (spikes per readout);
+    0 where a pixel has not fired yet.
+    """
+    stream = as_stream(spikes)
+    if state is None:
+        state = TFSTPState(stream.height, stream.width, params)
+    params = state.params
+    t = _times_array(times, len(stream))
+    if t[0] < state.next_plane:
+        raise ValueError(f"times must not go back before plane {state.next_plane} (TFSTP is causal)")
+    lo, hi = state.next_plane, int(t[-1]) + 1
+    out = np.empty((t.size, stream.height, stream.width), dtype=np.float32)
+    planes = np.ascontiguousarray(stream.window(lo, hi - lo))
+    _tfstp(planes, lo, t, params.u0, params.D, params.F, params.f, state.R, state.u, state.last, out)
+    state.next_plane = hi
+    return out
+
+
+# ------------------------------------------------------------------- colour, stream
 def bayer_baseline(frames: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     """Demosaic baseline frames computed on a mosaic: ``(..., H, W)`` → ``(..., H, W, 3)`` (Ψ)."""
     return demosaic_bilinear(frames, cfa)
 
 
-BASELINES = ("tfp",)
+def streamed_baseline(stream: SpikeStream, method: str, every: int, finish: Callable = lambda f: f,
+                      chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
+    """Yield ``(index, frame)`` of TFI or TFSTP at planes ``0, every, 2·every, …``, chunk by chunk.
+
+    Output frame ``k`` is the reconstruction at plane ``k · every``; ``finish``
+    is applied to each chunk (e.g. Ψ for colour).  Memory is bounded by the
+    chunk, whatever the stream's length; results equal one pass over the stream.
+    """
+    if method not in ("tfi", "tfstp"):
+        raise ValueError(f"streamed_baseline runs 'tfi' or 'tfstp'; got {method!r}")
+    stream = as_stream(stream)
+    all_times = np.arange(0, len(stream), every, dtype=np.int64)
+    state = TFSTPState(stream.height, stream.width) if method == "tfstp" else None
+    for first in range(0, all_times.size, chunk_frames):
+        times = all_times[first : first + chunk_frames]
+        frames = tfi(stream, times) if method == "tfi" else tfstp(stream, times, state=state)
+        frames = finish(frames)
+        for i in range(times.size):
+            yield first + i, frames[i]

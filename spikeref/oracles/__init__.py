@@ -7,6 +7,7 @@ Nothing in the package calls them at run time.
 """
 
 from spikeref.oracles.accumulate import accumulate_oracle
+from spikeref.oracles.baselines import tfi_oracle, tfp_spikecv_oracle, tfstp_oracle
 from spikeref.oracles.bayer import bayer_planes_oracle, demosaic_bilinear_oracle
 from spikeref.oracles.dat import pack_dat_oracle, unpack_dat_oracle
 
@@ -15,5 +16,8 @@ __all__ = [
     "bayer_planes_oracle",
     "demosaic_bilinear_oracle",
     "pack_dat_oracle",
+    "tfi_oracle",
+    "tfp_spikecv_oracle",
+    "tfstp_oracle",
     "unpack_dat_oracle",
 ]
