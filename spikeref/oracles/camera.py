@@ -1,0 +1,26 @@
+"""Oracle for Eq. 1–3: a spike camera pixel, readout by readout."""
+
+import numpy as np
+
+__all__ = ["fire_oracle"]
+
+
+def fire_oracle(charge, threshold, phase):
+    """Integrate ``charge[t]`` (``α·L`` per readout) from ``phase``; fire when ``E ≥ E_th``.
+
+    At a spike the accumulator keeps ``E mod E_th`` (Eq. 1); one spike at most
+    per readout (Eq. 2).  Returns ``(T, H, W) uint8``.
+    """
+    t_total, h, w = charge.shape
+    spikes = np.zeros((t_total, h, w), dtype=np.uint8)
+    for y in range(h):
+        for x in range(w):
+            energy = float(phase[y, x])
+            for t in range(t_total):
+                energy += float(charge[t, y, x])
+                if energy >= threshold:
+                    spikes[t, y, x] = 1
+                    energy -= threshold
+                    if energy >= threshold:
+                        energy = energy % threshold
+    return spikes

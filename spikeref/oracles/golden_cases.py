@@ -1,0 +1,150 @@
+"""The golden cases: for each equation, its inputs, its oracle and its fast function.
+
+``scripts/make_golden.py`` runs every oracle here and freezes inputs and
+outputs in ``golden/<name>.npz`` with ``golden/manifest.json``;
+``tests/test_golden.py`` holds both the oracle and the fast function to those
+files.  Inputs are small and built from fixed seeds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from spikeref.accumulate import accumulate as _accumulate
+from spikeref import baselines as _bl
+from spikeref import bayer as _bayer
+from spikeref.io import dat as _dat
+from spikeref.oracles import accumulate as o_acc
+from spikeref.oracles import baselines as o_bl
+from spikeref.oracles import bayer as o_bayer
+from spikeref.oracles import camera as o_cam
+from spikeref.oracles import dat as o_dat
+from spikeref.simulate import camera as _cam
+
+__all__ = ["GoldenCase", "CASES"]
+
+
+@dataclass(frozen=True)
+class GoldenCase:
+    name: str
+    equation: str
+    function: str
+    oracle: str
+    description: str
+    make_inputs: Callable[[], dict]
+    run_oracle: Callable[[dict], dict]
+    run_function: Callable[[dict], dict]
+    rtol: float = 0.0
+    atol: float = 0.0
+    params: dict = field(default_factory=dict)
+
+
+def _spikes(seed, shape, p):
+    return (np.random.default_rng(seed).random(shape) < p).astype(np.uint8)
+
+
+def _inputs_dat():
+    return {"spikes": _spikes(1, (3, 4, 8), 0.5), "wide_spikes": _spikes(2, (2, 2, 16), 0.5)}
+
+
+def _inputs_eq4():
+    return {"spikes": _spikes(3, (25, 4, 6), 0.3), "window": np.int64(5), "start": np.int64(2)}
+
+
+def _inputs_mosaic():
+    return {"mosaic": np.random.default_rng(4).random((6, 8))}
+
+
+def _inputs_camera():
+    rng = np.random.default_rng(5)
+    charge = np.concatenate([np.full((20, 1, 4), [0.25, 0.5, 0.125, 1.0]),
+                             rng.random((20, 1, 4)) * 1.5], axis=0)
+    return {"charge": charge, "threshold": np.float64(1.0), "phase": np.array([[0.0, 0.5, 0.875, 0.25]])}
+
+
+def _inputs_spike_train():
+    rng = np.random.default_rng(6)
+    rates = np.array([[0.0, 0.004, 0.05], [0.2, 0.5, 1.0]])
+    return {"spikes": (rng.random((320, 2, 3)) < rates).astype(np.uint8)}
+
+
+def _fire(inp):
+    state = np.array(inp["phase"], dtype=np.float64, copy=True)
+    return {"spikes": _cam.fire(inp["charge"], float(inp["threshold"]), state)}
+
+
+CASES: list[GoldenCase] = [
+    GoldenCase(
+        "dat_layout", "§3 storage (DESIGN §3)", "spikeref.io.dat.pack_planes / unpack_planes",
+        "spikeref.oracles.dat.pack_dat_oracle",
+        "Bytes of a .dat file: LSB-first bits, rows bottom-up; and a 16-wide stored row cropped to 12 columns.",
+        _inputs_dat,
+        lambda i: {"bytes": o_dat.pack_dat_oracle(i["spikes"]),
+                   "cropped": o_dat.unpack_dat_oracle(o_dat.pack_dat_oracle(i["wide_spikes"]), 2, 12, 16)},
+        lambda i: {"bytes": _dat.pack_planes(i["spikes"]).ravel(),
+                   "cropped": _dat.unpack_planes(_dat.pack_planes(i["wide_spikes"]), 2, 12, 16)},
+    ),
+    GoldenCase(
+        "eq1_3_fire", "Eq. 1–3", "spikeref.simulate.camera.fire", "spikeref.oracles.camera.fire_oracle",
+        "Integrate-and-fire from given initial charges; subtract reset; at most one spike per readout.",
+        _inputs_camera,
+        lambda i: {"spikes": o_cam.fire_oracle(i["charge"], float(i["threshold"]), i["phase"])},
+        _fire,
+    ),
+    GoldenCase(
+        "eq4_accumulate", "Eq. 4", "spikeref.accumulate.accumulate", "spikeref.oracles.accumulate.accumulate_oracle",
+        "Rates M_c/W · Σ S over windows [start + kW, start + (k+1)W), M_c = 1.",
+        _inputs_eq4,
+        lambda i: {"frames": o_acc.accumulate_oracle(i["spikes"], int(i["window"]), int(i["start"]))},
+        lambda i: {"frames": _accumulate(i["spikes"], int(i["window"]), start=int(i["start"]))},
+        atol=1e-7,
+    ),
+    GoldenCase(
+        "bayer_planes", "§4.1 (Fig. 3a)", "spikeref.bayer.bayer_planes", "spikeref.oracles.bayer.bayer_planes_oracle",
+        "Mosaic → 4 planes ordered by position (0,0), (0,1), (1,0), (1,1).",
+        _inputs_mosaic,
+        lambda i: {"planes": o_bayer.bayer_planes_oracle(i["mosaic"])},
+        lambda i: {"planes": _bayer.bayer_planes(i["mosaic"])},
+    ),
+] + [
+    GoldenCase(
+        f"psi_{cfa.lower()}", "Eq. 13 (Ψ)", "spikeref.bayer.demosaic_bilinear",
+        "spikeref.oracles.bayer.demosaic_bilinear_oracle",
+        f"Bilinear demosaic of a {cfa} mosaic, normalised at the half-sample-symmetric border.",
+        _inputs_mosaic,
+        (lambda c: lambda i: {"rgb": o_bayer.demosaic_bilinear_oracle(i["mosaic"], c)})(cfa),
+        (lambda c: lambda i: {"rgb": _bayer.demosaic_bilinear(i["mosaic"], c)})(cfa),
+        atol=1e-12, params={"cfa": cfa},
+    )
+    for cfa in _bayer.CFA_PATTERNS
+] + [
+    GoldenCase(
+        "tfp", "Eq. 4 / TFP (Zhu et al. 2019)", "spikeref.baselines.tfp",
+        "spikeref.oracles.baselines.tfp_spikecv_oracle",
+        "SpikeCV's TFP with half window 3: frame t-3 is the mean of planes [t-3, t+3].",
+        _inputs_spike_train,
+        lambda i: {"frames": o_bl.tfp_spikecv_oracle(i["spikes"], 3)},
+        lambda i: {"frames": np.stack([_bl.tfp(i["spikes"], 7, start=s, count=1)[0]
+                                       for s in range(0, i["spikes"].shape[0] - 6)])},
+        atol=1e-7, params={"half_window": 3},
+    ),
+    GoldenCase(
+        "tfi", "TFI (Zhu et al. 2019)", "spikeref.baselines.tfi", "spikeref.oracles.baselines.tfi_oracle",
+        "1/ISI at every plane; interval 257 where no spike precedes or follows (SpikeCV).",
+        _inputs_spike_train,
+        lambda i: {"rates": o_bl.tfi_oracle(i["spikes"])},
+        lambda i: {"rates": _bl.tfi(i["spikes"])},
+        rtol=1e-6, params={"max_interval": 256, "boundary": 257},
+    ),
+    GoldenCase(
+        "tfstp", "TFSTP (Zheng et al. 2023)", "spikeref.baselines.tfstp", "spikeref.oracles.baselines.tfstp_oracle",
+        "Short-term-plasticity rate at every plane, u0=0.15, D=1, F=10, f=0.15 (readouts).",
+        _inputs_spike_train,
+        lambda i: {"rates": o_bl.tfstp_oracle(i["spikes"])},
+        lambda i: {"rates": _bl.tfstp(i["spikes"])},
+        rtol=1e-5, atol=1e-7, params={"u0": 0.15, "D": 1.0, "F": 10.0, "f": 0.15},
+    ),
+]
