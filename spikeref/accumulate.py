@@ -82,17 +82,21 @@ def _count_packed(words, t0, window, nwin, nlev, bits_per_word, height, file_wid
                 out[k, row, col] = v
 
 
-def _byte_spread_table() -> np.ndarray:
-    """``table[v]``: the 8 bits of byte ``v`` spread into the 8 bytes of a uint64 (LSB first)."""
-    bits = np.unpackbits(np.arange(256, dtype=np.uint8)[:, None], axis=1, bitorder="little")
-    return np.ascontiguousarray(bits).view("<u8")[:, 0].copy()
-
-
-_SPREAD = _byte_spread_table()
+@njit(inline="always")
+def _transpose8(x):
+    # Transpose the 8×8 bit matrix held in a uint64 (element (r, c) at bit 8r + c) with three
+    # rounds of masked swaps (2×2, 4×4 then 8×8 blocks; Warren, Hacker's Delight §7-3).
+    t = (x ^ (x >> np.uint64(7))) & np.uint64(0x00AA00AA00AA00AA)
+    x = x ^ t ^ (t << np.uint64(7))
+    t = (x ^ (x >> np.uint64(14))) & np.uint64(0x0000CCCC0000CCCC)
+    x = x ^ t ^ (t << np.uint64(14))
+    t = (x ^ (x >> np.uint64(28))) & np.uint64(0x00000000F0F0F0F0)
+    x = x ^ t ^ (t << np.uint64(28))
+    return x
 
 
 @njit(parallel=True)
-def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_offset, spread, out8):
+def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_offset, out8):
     # Fast path: 64-bit words, rows a multiple of 8 pixels, window <= 255.  out8 is the uint8
     # output (nwin, H, W) viewed as uint64 (nwin, H, W/8): one store writes the counts of 8 pixels.
     nw = words.shape[1]
@@ -100,7 +104,7 @@ def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_
     fw8 = file_width // 8
     off8 = col_offset // 8
     nchunk = (nw + _WORD_CHUNK - 1) // _WORD_CHUNK
-    mask = np.uint64(0xFF)
+    lane_bits = np.uint64(0x0101010101010101)
     for task in prange(nwin * nchunk):
         k = task // nchunk
         j0 = (task % nchunk) * _WORD_CHUNK
@@ -117,22 +121,44 @@ def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_
                     c = levels[lev, j]
                     levels[lev, j] = c ^ carry[j]
                     carry[j] = c & carry[j]
-        # byte b of the stored plane holds pixels 8b..8b+7: stored row b // fw8, column group b % fw8
+        # Byte q of a level word holds bit `lev` of the counts of pixels 8q..8q+7.  After the
+        # transpose, bit q of byte i holds that of pixel 8q + i, so (T >> q) & 0x0101.. puts
+        # pixel 8q + i's bit in byte i: eight counts assembled in one uint64.
+        for lev in range(nlev):
+            for j in range(n):
+                levels[lev, j] = _transpose8(levels[lev, j])
+        # stored byte b holds pixels 8b..8b+7: stored row b // fw8, column group b % fw8
         col8 = (j0 * 8) % fw8
         row = height - 1 - (j0 * 8) // fw8
         for j in range(n):
             for q in range(8):
                 c8 = col8 - off8
                 if c8 >= 0 and c8 < wout8:
-                    shift = np.uint64(8 * q)
                     acc = np.uint64(0)
                     for lev in range(nlev):
-                        acc += spread[(levels[lev, j] >> shift) & mask] << np.uint64(lev)
+                        acc |= ((levels[lev, j] >> np.uint64(q)) & lane_bits) << np.uint64(lev)
                     out8[k, row, c8] = acc
                 col8 += 1
                 if col8 == fw8:
                     col8 = 0
                     row -= 1
+
+
+@njit(parallel=True)
+def _counts_to_rates(counts, gain, out):
+    # out[k] = counts[k] * gain; gain (H, W) float32 = M_c / W per pixel, or (1, 1) for one gain
+    nwin, h, w = counts.shape
+    uniform = gain.shape[0] == 1 and gain.shape[1] == 1
+    g0 = gain[0, 0]
+    for task in prange(nwin * h):
+        k = task // h
+        y = task % h
+        if uniform:
+            for x in range(w):
+                out[k, y, x] = counts[k, y, x] * g0
+        else:
+            for x in range(w):
+                out[k, y, x] = counts[k, y, x] * gain[y, x]
 
 
 def _packed_words(packed: np.ndarray) -> tuple[np.ndarray, int]:
@@ -172,7 +198,16 @@ def _check_window_args(stream: SpikeStream, window, start, count):
     return int(window), int(start), int(count)
 
 
-def window_counts(spikes, window: int, start: int = 0, count: int | None = None) -> np.ndarray:
+def _check_out(out, shape, dtype, name="out"):
+    if out is None:
+        return np.empty(shape, dtype=dtype)
+    if not isinstance(out, np.ndarray) or out.shape != shape or out.dtype != dtype or not out.flags.c_contiguous:
+        got = f"{out.dtype} {out.shape}" if isinstance(out, np.ndarray) else type(out).__name__
+        raise ValueError(f"{name} must be a C-contiguous {np.dtype(dtype)} array of shape {shape}; got {got}")
+    return out
+
+
+def window_counts(spikes, window: int, start: int = 0, count: int | None = None, out=None) -> np.ndarray:
     """Spike counts of consecutive windows: the sum in Eq. 4, before scaling.
 
     Parameters
@@ -185,6 +220,9 @@ def window_counts(spikes, window: int, start: int = 0, count: int | None = None)
         First plane of the first window.
     count : int, optional
         Number of windows; default all whole windows after ``start``.
+    out : ndarray, optional
+        Buffer to write into (shape ``(count, H, W)``, the dtype below), so a
+        streaming caller can reuse memory.
 
     Returns
     -------
@@ -195,7 +233,7 @@ def window_counts(spikes, window: int, start: int = 0, count: int | None = None)
     stream = as_stream(spikes)
     window, start, count = _check_window_args(stream, window, start, count)
     dtype = np.uint8 if window <= 0xFF else (np.uint16 if window <= 0xFFFF else np.uint32)
-    out = np.empty((count, stream.height, stream.width), dtype=dtype)
+    out = _check_out(out, (count, stream.height, stream.width), dtype)
     if stream.is_packed:
         words, bits = _packed_words(stream.packed)
         fast = (
@@ -205,7 +243,7 @@ def window_counts(spikes, window: int, start: int = 0, count: int | None = None)
         if fast:
             _count_packed_bytes8(
                 words, start, window, count, int(window).bit_length(), stream.height,
-                stream.file_width, stream.col_offset, _SPREAD, out.view("<u8"),
+                stream.file_width, stream.col_offset, out.view("<u8"),
             )
             return out
         nlev = int(window).bit_length()
@@ -238,7 +276,8 @@ def channel_gain_map(height: int, width: int, gains, cfa: str | None) -> np.ndar
 
 
 def accumulate(
-    spikes, window: int, start: int = 0, count: int | None = None, gains=None, cfa: str | None = None
+    spikes, window: int, start: int = 0, count: int | None = None, gains=None, cfa: str | None = None,
+    out=None,
 ) -> np.ndarray:
     """Eq. 4 for a whole stream: firing-rate frames on the ``W`` grid.
 
@@ -254,6 +293,8 @@ def accumulate(
         ``M_c``; ``None`` means 1 (the rate itself).
     cfa : str, optional
         Pattern for per-channel gains; defaults to the stream's.
+    out : ndarray, optional
+        ``(count, H, W) float32`` buffer to reuse.
 
     Returns
     -------
@@ -262,8 +303,13 @@ def accumulate(
     """
     stream = as_stream(spikes, cfa=cfa)
     counts = window_counts(stream, window, start, count)
-    scale = channel_gain_map(stream.height, stream.width, gains, cfa or stream.cfa)
-    return counts.astype(np.float32) * np.float32(1.0 / window) * scale
+    gain = channel_gain_map(stream.height, stream.width, gains, cfa or stream.cfa)
+    gain_map = np.asarray(np.asarray(gain, dtype=np.float64) / window, dtype=np.float32).reshape(
+        (1, 1) if np.ndim(gain) == 0 else (stream.height, stream.width)
+    )
+    out = _check_out(out, counts.shape, np.float32)
+    _counts_to_rates(counts, gain_map, out)
+    return out
 
 
 def accumulate_window(spikes, start: int, window: int, gains=None, cfa: str | None = None) -> np.ndarray:
