@@ -100,31 +100,36 @@ def _times_array(times, n_planes: int, name: str = "times") -> np.ndarray:
 
 @njit(parallel=True)
 def _tfi(spikes, plane0, times, max_interval, boundary, out):
-    # spikes (n, H, W) = planes [plane0, plane0 + n) of the stream; times sorted absolute indices.
-    # For t: n = first spike >= t, p = last spike < n; rate = 1/(n - p), or 1/boundary when p or n
-    # does not exist or n - p > max_interval.
+    # spikes (n, H, W) = planes [plane0, plane0 + n) of the stream; times: sorted absolute indices.
+    # For t: n = first spike at or after t, p = last spike before n; rate = 1/(n - p), or
+    # 1/boundary when p or n does not exist or n - p > max_interval.
+    # Pass 1 (forward) records at each spike the interval it closes; pass 2 (backward) carries the
+    # interval of the next spike back to every requested time.  Both walk rows of planes in order.
     n_planes, h, w = spikes.shape
     n_times = times.shape[0]
     for y in prange(h):
-        last = np.full(w, -1, dtype=np.int64)  # last spike seen by each pixel (-1: none)
-        k = np.zeros(w, dtype=np.int64)  # next requested time each pixel still has to fill
+        closing = np.empty((n_planes, w), dtype=np.int32)
+        last = np.full(w, -(max_interval + 1), dtype=np.int64)  # as if the last spike were too far back
         for i in range(n_planes):
             t = plane0 + i
+            for x in range(w):  # branch-free so the loop vectorises
+                d = t - last[x]
+                closing[i, x] = d if d <= max_interval else boundary
+                last[x] = t if spikes[i, y, x] else last[x]
+        current = np.full(w, boundary, dtype=np.int32)  # interval closed by the next spike
+        inv = np.empty(w, dtype=np.float32)
+        k = n_times - 1
+        for i in range(n_planes - 1, -1, -1):
+            t = plane0 + i
             for x in range(w):
-                if spikes[i, y, x]:
-                    p = last[x]
-                    interval = boundary
-                    if p >= 0 and t - p <= max_interval:
-                        interval = t - p
-                    kk = k[x]
-                    while kk < n_times and times[kk] <= t:
-                        out[kk, y, x] = 1.0 / interval
-                        kk += 1
-                    k[x] = kk
-                    last[x] = t
-        for x in range(w):
-            for kk in range(k[x], n_times):
-                out[kk, y, x] = 1.0 / boundary
+                current[x] = closing[i, x] if spikes[i, y, x] else current[x]
+            if k >= 0 and times[k] == t:
+                for x in range(w):
+                    inv[x] = np.float32(1.0) / np.float32(current[x])
+                while k >= 0 and times[k] == t:
+                    for x in range(w):
+                        out[k, y, x] = inv[x]
+                    k -= 1
 
 
 def tfi(spikes, times=None) -> np.ndarray:
@@ -205,7 +210,10 @@ class TFSTPState:
         self.R = np.ones((height, width), dtype=np.float64)
         self.u = np.full((height, width), params.u0, dtype=np.float64)
         self.last = np.zeros((height, width), dtype=np.int64)  # (index of last spike) + 1; 0 = none
+        self.rate = np.zeros((height, width), dtype=np.float64)  # cached read-out; < 0: stale
         self.next_plane = 0
+        self.decay_D = _decay_table(params.D)
+        self.decay_F = _decay_table(params.F)
 
 
 @njit
@@ -232,25 +240,47 @@ def _stp_rate(R, u, u0, D, F, f):
     return rate
 
 
+_EXP_TABLE_SIZE = 4096  # intervals (readouts) whose decay factors are tabulated
+
+
+def _decay_table(tau: float) -> np.ndarray:
+    """``exp(-dt / tau)`` for integer ``dt = 0 … 4095`` (intervals are whole readouts)."""
+    return np.exp(-np.arange(_EXP_TABLE_SIZE, dtype=np.float64) / tau)
+
+
 @njit(parallel=True)
-def _tfstp(spikes, plane0, times, u0, D, F, f, R, u, last, out):
+def _tfstp(spikes, plane0, times, u0, D, F, f, decay_D, decay_F, R, u, last, rate, out):
+    # State changes only at spikes; the read-out (two logarithms) is cached in `rate` and redone
+    # at an output time only for pixels that fired since the previous one (rate < 0 marks them).
     n_planes, h, w = spikes.shape
     n_times = times.shape[0]
+    n_table = decay_D.shape[0]
     for y in prange(h):
         k = 0
+        while k < n_times and times[k] < plane0:
+            k += 1
         for i in range(n_planes):
             t = plane0 + i
             for x in range(w):
                 if spikes[i, y, x]:
                     dt = (t + 1) - last[y, x]
+                    if dt < n_table:
+                        ed = decay_D[dt]
+                        ef = decay_F[dt]
+                    else:
+                        ed = np.exp(-dt / D)
+                        ef = np.exp(-dt / F)
                     r_old = R[y, x]
                     u_old = u[y, x]
-                    R[y, x] = 1.0 - (1.0 - r_old * (1.0 - u_old)) * np.exp(-dt / D)
-                    u[y, x] = u0 + (u_old + f * (1.0 - u_old) - u0) * np.exp(-dt / F)
+                    R[y, x] = 1.0 - (1.0 - r_old * (1.0 - u_old)) * ed
+                    u[y, x] = u0 + (u_old + f * (1.0 - u_old) - u0) * ef
                     last[y, x] = t + 1
+                    rate[y, x] = -1.0  # stale: read out again at the next output time
             while k < n_times and times[k] == t:
                 for x in range(w):
-                    out[k, y, x] = _stp_rate(R[y, x], u[y, x], u0, D, F, f)
+                    if rate[y, x] < 0.0:
+                        rate[y, x] = _stp_rate(R[y, x], u[y, x], u0, D, F, f)
+                    out[k, y, x] = rate[y, x]
                 k += 1
 
 
@@ -293,7 +323,8 @@ def tfstp(spikes, times=None, params: STPParams = STPParams(), state: TFSTPState
     lo, hi = state.next_plane, int(t[-1]) + 1
     out = np.empty((t.size, stream.height, stream.width), dtype=np.float32)
     planes = np.ascontiguousarray(stream.window(lo, hi - lo))
-    _tfstp(planes, lo, t, params.u0, params.D, params.F, params.f, state.R, state.u, state.last, out)
+    _tfstp(planes, lo, t, params.u0, params.D, params.F, params.f, state.decay_D, state.decay_F,
+           state.R, state.u, state.last, state.rate, out)
     state.next_plane = hi
     return out
 
