@@ -8,6 +8,7 @@ equation of the paper is a function here with a literal oracle
 """
 
 from spikeref.accumulate import accumulate, accumulate_window, window_counts
+from spikeref.baselines import STPParams, tfi, tfp, tfstp
 from spikeref.bayer import bayer_mosaic, bayer_planes, cfa_channels, demosaic_bilinear
 from spikeref.io.dat import load_spikes, read_dat, save_spikes, write_dat
 from spikeref.stream import SpikeStream
@@ -27,4 +28,8 @@ __all__ = [
     "bayer_mosaic",
     "cfa_channels",
     "demosaic_bilinear",
+    "tfp",
+    "tfi",
+    "tfstp",
+    "STPParams",
 ]

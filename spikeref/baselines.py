@@ -216,72 +216,103 @@ class TFSTPState:
         self.decay_F = _decay_table(params.F)
 
 
-@njit
-def _stp_rate(R, u, u0, D, F, f):
-    # Invert the steady-state relations for a constant interval Δ (Zheng et al. 2023):
-    #   exp(-Δ/F) = (u - u0) / (u + f(1 - u) - u0),   exp(-Δ/D) = (1 - R) / (1 - R(1 - u))
-    # and return the mean of the two rate estimates 1/Δ (0 where no spike has been seen).
-    rate = 0.0
-    a = u - u0
-    b = u + f * (1.0 - u) - u0
-    if a > 0.0 and b > 0.0:
-        ratio = a / b
-        if ratio < 1.0:
-            rate += -1.0 / (F * np.log(ratio))
-    c = 1.0 - R
-    d = 1.0 - R * (1.0 - u)
-    if c > 0.0 and d > 0.0:
-        ratio = c / d
-        if ratio < 1.0:
-            rate += -1.0 / (D * np.log(ratio))
-    rate *= 0.5
-    if rate > 1.0:
-        rate = 1.0
-    return rate
-
-
-_EXP_TABLE_SIZE = 4096  # intervals (readouts) whose decay factors are tabulated
-
-
 def _decay_table(tau: float) -> np.ndarray:
-    """``exp(-dt / tau)`` for integer ``dt = 0 … 4095`` (intervals are whole readouts)."""
-    return np.exp(-np.arange(_EXP_TABLE_SIZE, dtype=np.float64) / tau)
+    """``exp(-dt / tau)`` for integer ``dt = 0 … ⌈40 tau⌉`` (intervals are whole readouts).
+
+    Longer intervals use the last entry, ``e^-40 ≈ 4e-18``: below half an ulp of the
+    terms it multiplies, so the update is unchanged at float64 precision.
+    """
+    size = int(np.ceil(40.0 * tau)) + 1
+    return np.exp(-np.arange(size, dtype=np.float64) / tau)
+
+
+_LN2 = 0.6931471805599453
+_SQRT2 = 1.4142135623730951
+
+
+@njit
+def _log_inplace(values, n, exponent):
+    # Natural log of values[:n] (positive, normal floats) in place, written without calls or
+    # branches so it vectorises: x = m·2^e with m in [1, 2) read from the IEEE bits, m folded
+    # into [√½, √2), then log m = 2 atanh(s), s = (m - 1)/(m + 1), |s| < 0.172, by its series
+    # to s^13 (relative error < 1e-12).
+    bits = values.view(np.uint64)
+    for i in range(n):
+        b = bits[i]
+        exponent[i] = np.float64(np.int64(b >> np.uint64(52)) - 1023)
+        bits[i] = (b & np.uint64(0x000FFFFFFFFFFFFF)) | np.uint64(0x3FF0000000000000)
+    for i in range(n):
+        m = values[i]
+        big = m > _SQRT2
+        m = m * 0.5 if big else m
+        e = exponent[i] + (1.0 if big else 0.0)
+        s = (m - 1.0) / (m + 1.0)
+        s2 = s * s
+        series = 2.0 + s2 * (2.0 / 3 + s2 * (2.0 / 5 + s2 * (2.0 / 7 + s2 * (2.0 / 9 + s2 * (2.0 / 11 + s2 * (2.0 / 13))))))
+        values[i] = s * series + e * _LN2
 
 
 @njit(parallel=True)
 def _tfstp(spikes, plane0, times, u0, D, F, f, decay_D, decay_F, R, u, last, rate, out):
-    # State changes only at spikes; the read-out (two logarithms) is cached in `rate` and redone
-    # at an output time only for pixels that fired since the previous one (rate < 0 marks them).
+    # The synapse state changes only at spikes: each plane's fired pixels are compacted first and
+    # updated in a tight loop.  The read-out (two logarithms) is cached in `rate` and redone at an
+    # output time only for pixels that fired since (marked by rate < 0), again compacted.
     n_planes, h, w = spikes.shape
     n_times = times.shape[0]
-    n_table = decay_D.shape[0]
+    top_d = decay_D.shape[0] - 1
+    top_f = decay_F.shape[0] - 1
     for y in prange(h):
+        idx = np.empty(w, dtype=np.int64)
+        ratio_u = np.empty(w, dtype=np.float64)
+        ratio_r = np.empty(w, dtype=np.float64)
+        ok_u = np.empty(w, dtype=np.float64)
+        ok_r = np.empty(w, dtype=np.float64)
+        scratch = np.empty(w, dtype=np.float64)
         k = 0
-        while k < n_times and times[k] < plane0:
-            k += 1
         for i in range(n_planes):
             t = plane0 + i
-            for x in range(w):
-                if spikes[i, y, x]:
-                    dt = (t + 1) - last[y, x]
-                    if dt < n_table:
-                        ed = decay_D[dt]
-                        ef = decay_F[dt]
-                    else:
-                        ed = np.exp(-dt / D)
-                        ef = np.exp(-dt / F)
-                    r_old = R[y, x]
-                    u_old = u[y, x]
-                    R[y, x] = 1.0 - (1.0 - r_old * (1.0 - u_old)) * ed
-                    u[y, x] = u0 + (u_old + f * (1.0 - u_old) - u0) * ef
-                    last[y, x] = t + 1
-                    rate[y, x] = -1.0  # stale: read out again at the next output time
-            while k < n_times and times[k] == t:
-                for x in range(w):
-                    if rate[y, x] < 0.0:
-                        rate[y, x] = _stp_rate(R[y, x], u[y, x], u0, D, F, f)
-                    out[k, y, x] = rate[y, x]
-                k += 1
+            n = 0
+            for x in range(w):  # compact the pixels that fired in this plane (branch-free)
+                idx[n] = x
+                n += 1 if spikes[i, y, x] else 0
+            for m in range(n):
+                x = idx[m]
+                dt = t + 1 - last[y, x]
+                r_old = R[y, x]
+                u_old = u[y, x]
+                R[y, x] = 1.0 - (1.0 - r_old * (1.0 - u_old)) * decay_D[dt if dt < top_d else top_d]
+                u[y, x] = u0 + (u_old + f * (1.0 - u_old) - u0) * decay_F[dt if dt < top_f else top_f]
+                last[y, x] = t + 1
+                rate[y, x] = -1.0
+            if k < n_times and times[k] == t:
+                n = 0
+                for x in range(w):  # compact the stale pixels
+                    idx[n] = x
+                    n += 1 if rate[y, x] < 0.0 else 0
+                for m in range(n):
+                    x = idx[m]
+                    uu = u[y, x]
+                    rr = R[y, x]
+                    a = uu - u0
+                    b = uu + f * (1.0 - uu) - u0
+                    c = 1.0 - rr
+                    d = 1.0 - rr * (1.0 - uu)
+                    q_u = a / b if (a > 0.0 and b > 0.0) else 0.5
+                    q_r = c / d if (c > 0.0 and d > 0.0) else 0.5
+                    ok_u[m] = 1.0 if (a > 0.0 and b > 0.0 and q_u < 1.0 and q_u >= 2.3e-308) else 0.0
+                    ok_r[m] = 1.0 if (c > 0.0 and d > 0.0 and q_r < 1.0 and q_r >= 2.3e-308) else 0.0
+                    ratio_u[m] = q_u if ok_u[m] > 0.0 else 0.5
+                    ratio_r[m] = q_r if ok_r[m] > 0.0 else 0.5
+                _log_inplace(ratio_u, n, scratch)
+                _log_inplace(ratio_r, n, scratch)
+                for m in range(n):
+                    # the two steady-state estimates of 1/Δ, averaged and clipped to one spike per readout
+                    est = 0.5 * (ok_u[m] * (-1.0 / (F * ratio_u[m])) + ok_r[m] * (-1.0 / (D * ratio_r[m])))
+                    rate[y, idx[m]] = est if est < 1.0 else 1.0
+                while k < n_times and times[k] == t:
+                    for x in range(w):
+                        out[k, y, x] = rate[y, x]
+                    k += 1
 
 
 def tfstp(spikes, times=None, params: STPParams = STPParams(), state: TFSTPState | None = None) -> np.ndarray:

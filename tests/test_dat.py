@@ -102,3 +102,19 @@ def test_real_dat_sample_reads_upright(real_data):
     assert corr > 0.95
     flipped = np.corrcoef(tfp[::-1].ravel(), gt.ravel())[0, 1]
     assert flipped < 0.5  # reading the rows top-down would not match the picture
+
+
+def test_a_huge_file_opens_without_being_read(tmp_path):
+    # a 4 GB sparse file of 1000×1000 planes: opening and reading its last window touches only that window
+    import resource
+
+    path = tmp_path / "huge.dat"
+    plane = 1000 * 1000 // 8
+    with open(path, "wb") as fh:
+        fh.truncate(32000 * plane)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    stream = read_dat(path, 1000, 1000, cfa="RGGB")
+    assert len(stream) == 32000 and stream.duration_s == pytest.approx(1.6)
+    assert stream.window(31990, 10).sum() == 0
+    grown_mib = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
+    assert grown_mib < 200

@@ -45,19 +45,20 @@ def tfi_oracle(spikes, max_interval=256, boundary=257):
     return 1.0 / interval
 
 
-def tfstp_oracle(spikes, u0=0.15, D=1.0, F=10.0, f=0.15):
+def tfstp_oracle(spikes, u0=0.15, D=1.0, F=10.0, f=0.15, times=None):
     """TFSTP at every plane, plane by plane, float64.
 
     At a spike at plane ``t`` (``Δt = t + 1 − last``, ``last`` = 0 before the
     first spike): ``R ← 1 − (1 − R(1 − u))e^{−Δt/D}``, ``u ← u0 + (u + f(1 − u) − u0)e^{−Δt/F}``
-    (both with the old ``u``).  Output: mean of ``−1/(F ln((u − u0)/(u + f(1 − u) − u0)))``
+    (both with the old ``u``).  Output at each plane in ``times`` (default all): mean of ``−1/(F ln((u − u0)/(u + f(1 − u) − u0)))``
     and ``−1/(D ln((1 − R)/(1 − R(1 − u))))``, each 0 where undefined, clipped to 1.
     """
     t_total, h, w = spikes.shape
     R = np.ones((h, w))
     u = np.full((h, w), u0)
     last = np.zeros((h, w))
-    out = np.zeros((t_total, h, w))
+    times = list(range(t_total)) if times is None else list(times)
+    out = np.zeros((len(times), h, w))
     for t in range(t_total):
         fired = spikes[t] == 1
         dt = t + 1 - last
@@ -66,10 +67,12 @@ def tfstp_oracle(spikes, u0=0.15, D=1.0, F=10.0, f=0.15):
         R = np.where(fired, new_R, R)
         u = np.where(fired, new_u, u)
         last = np.where(fired, t + 1, last)
+        if t not in times:
+            continue
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio_u = (u - u0) / (u + f * (1 - u) - u0)
             ratio_R = (1 - R) / (1 - R * (1 - u))
             rho_u = np.where((ratio_u > 0) & (ratio_u < 1), -1 / (F * np.log(ratio_u)), 0.0)
             rho_R = np.where((ratio_R > 0) & (ratio_R < 1), -1 / (D * np.log(ratio_R)), 0.0)
-        out[t] = np.minimum(0.5 * (rho_u + rho_R), 1.0)
+        out[times.index(t)] = np.minimum(0.5 * (rho_u + rho_R), 1.0)
     return out
