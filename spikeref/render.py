@@ -53,6 +53,11 @@ class FrameSink:
             if self.exr_dir.exists() and not self.exr_dir.is_dir():
                 raise NotADirectoryError(f"EXR output is not a folder: {self.exr_dir}")
             self.exr_dir.mkdir(parents=True, exist_ok=True)
+        if video is not None:
+            video = Path(video)
+            if video.suffix.lower() not in (".mp4", ".gif"):
+                raise ValueError(f"video output must end in .mp4 or .gif; got {video.name!r}")
+            video.parent.mkdir(parents=True, exist_ok=True)
         self._video = VideoWriter(video, fps) if video is not None else None
         self.exposure = exposure
         self._pending: list[tuple[int, np.ndarray]] = []
