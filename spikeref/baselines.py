@@ -248,7 +248,8 @@ def _log_inplace(values, n, exponent):
         e = exponent[i] + (1.0 if big else 0.0)
         s = (m - 1.0) / (m + 1.0)
         s2 = s * s
-        series = 2.0 + s2 * (2.0 / 3 + s2 * (2.0 / 5 + s2 * (2.0 / 7 + s2 * (2.0 / 9 + s2 * (2.0 / 11 + s2 * (2.0 / 13))))))
+        series = 2.0 + s2 * (2.0 / 3 + s2 * (2.0 / 5 + s2 * (2.0 / 7 + s2 * (2.0 / 9 + s2 * (2.0 / 11
+                                                                                           + s2 * (2.0 / 13))))))
         values[i] = s * series + e * _LN2
 
 

@@ -84,7 +84,8 @@ def cmd_info(args) -> int:
     t, h, w = stream.shape
     print(f"file        {stream.path}")
     print(f"planes      {t}")
-    print(f"size        {h} × {w} pixels" + (f" (stored rows {stream.file_width} wide)" if stream.file_width != w else ""))
+    stored = f" (stored rows {stream.file_width} wide)" if stream.file_width != w else ""
+    print(f"size        {h} × {w} pixels{stored}")
     print(f"cfa         {stream.cfa or 'mono'}")
     print(f"rate        {stream.rate_hz:g} planes/s")
     print(f"duration    {stream.duration_s * 1000:.3f} ms")
@@ -99,7 +100,7 @@ def cmd_info(args) -> int:
         names = list(stream.cfa) if stream.cfa else ["(0,0)", "(0,1)", "(1,0)", "(1,1)"]
         per_plane = bayer_planes(rates).mean(axis=(-1, -2))
         print("per Bayer plane (spikes/readout):")
-        for pos, (name, r) in enumerate(zip(names, per_plane)):
+        for pos, (name, r) in enumerate(zip(names, per_plane, strict=True)):
             print(f"  plane {pos} at ({pos // 2},{pos % 2}) {name:>5}: {r:.5f}")
     return 0
 

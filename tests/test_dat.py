@@ -61,7 +61,8 @@ def test_bad_files_give_clear_errors(tmp_path):
     with pytest.raises(ValueError, match="empty"):
         read_dat(tmp_path / "empty.dat", 4, 8)
     (tmp_path / "trunc.dat").write_bytes(b"\0" * 13)
-    with pytest.raises(ValueError, match=r"not a whole number of 4×8 planes \(4 bytes each; 3 whole planes and 1 bytes"):
+    msg = r"not a whole number of 4×8 planes \(4 bytes each; 3 whole planes and 1 bytes"
+    with pytest.raises(ValueError, match=msg):
         read_dat(tmp_path / "trunc.dat", 4, 8)
     with pytest.raises(ValueError, match="not a whole number of bytes"):
         read_dat(tmp_path / "trunc.dat", 3, 5)

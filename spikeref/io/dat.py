@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spikeref.io.atomic import atomic_write
+from spikeref.io.atomic import atomic_write, publish, temporary_beside
 
 __all__ = [
     "plane_nbytes",
@@ -30,6 +30,7 @@ __all__ = [
     "unpack_planes",
     "read_dat",
     "write_dat",
+    "DatWriter",
     "load_spikes",
     "save_spikes",
 ]
@@ -157,6 +158,64 @@ def read_dat(
     )
 
 
+class DatWriter:
+    """Write a ``.dat`` file plane chunk by plane chunk, atomically.
+
+    Planes go to a temporary file beside ``path``; :meth:`close` renames it to ``path``,
+    :meth:`abort` (or an exception inside a ``with`` block) removes it, so no partial file
+    is ever left under the final name.  Memory is bounded by the chunks appended.
+
+    Parameters
+    ----------
+    path : str or Path
+    height, width : int
+        Plane size; ``height · width`` must be a multiple of 8.
+    """
+
+    def __init__(self, path, height: int, width: int):
+        self.path = Path(path)
+        self.height, self.width = int(height), int(width)
+        plane_nbytes(self.height, self.width)
+        self.planes = 0
+        self._tmp = temporary_beside(self.path)
+        self._fh = open(self._tmp, "wb")
+
+    def append(self, spikes: np.ndarray) -> None:
+        """Append ``(n, H, W)`` 0/1 planes."""
+        spikes = check_spikes(spikes)
+        if spikes.shape[1:] != (self.height, self.width):
+            raise ValueError(
+                f"planes must be {self.height}×{self.width} to go into {self.path.name}; got {spikes.shape[1:]}"
+            )
+        self._fh.write(pack_planes(spikes).tobytes())
+        self.planes += spikes.shape[0]
+
+    def close(self) -> Path:
+        """Finish: flush and rename to the final path."""
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+            publish(self._tmp, self.path)
+        return self.path
+
+    def abort(self) -> None:
+        """Drop the temporary file; the final path is left as it was."""
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+            Path(self._tmp).unlink(missing_ok=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+        return False
+
+
 def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
     """Write spikes in the ``.dat`` layout, atomically.
 
@@ -165,7 +224,7 @@ def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
     path : str or Path
     spikes : ndarray ``(T, H, W)`` 0/1, or a SpikeStream
         A stream is written window by window (memory bounded by
-        ``chunk_planes``); a packed stream with the same layout is copied as is.
+        ``chunk_planes``).
     """
     from spikeref.stream import SpikeStream
 
@@ -173,15 +232,11 @@ def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
         stream = spikes
     else:
         stream = SpikeStream.from_array(check_spikes(spikes))
-    plane_nbytes(stream.height, stream.width)
-
-    def _write(tmp):
-        with open(tmp, "wb") as fh:
-            for start in range(0, len(stream), chunk_planes):
-                n = min(chunk_planes, len(stream) - start)
-                fh.write(pack_planes(stream.window(start, n)).tobytes())
-
-    return atomic_write(path, _write)
+    with DatWriter(path, stream.height, stream.width) as writer:
+        for start in range(0, len(stream), chunk_planes):
+            n = min(chunk_planes, len(stream) - start)
+            writer.append(stream.window(start, n))
+    return Path(path)
 
 
 def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, **kw):

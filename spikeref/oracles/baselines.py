@@ -50,7 +50,8 @@ def tfstp_oracle(spikes, u0=0.15, D=1.0, F=10.0, f=0.15, times=None):
 
     At a spike at plane ``t`` (``Δt = t + 1 − last``, ``last`` = 0 before the
     first spike): ``R ← 1 − (1 − R(1 − u))e^{−Δt/D}``, ``u ← u0 + (u + f(1 − u) − u0)e^{−Δt/F}``
-    (both with the old ``u``).  Output at each plane in ``times`` (default all): mean of ``−1/(F ln((u − u0)/(u + f(1 − u) − u0)))``
+    (both with the old ``u``).  Output at each plane in ``times`` (default all): mean of
+    ``−1/(F ln((u − u0)/(u + f(1 − u) − u0)))``
     and ``−1/(D ln((1 − R)/(1 − R(1 − u))))``, each 0 where undefined, clipped to 1.
     """
     t_total, h, w = spikes.shape

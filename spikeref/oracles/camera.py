@@ -8,13 +8,17 @@ __all__ = ["fire_oracle"]
 def fire_oracle(charge, threshold, phase):
     """Integrate ``charge[t]`` (``α·L`` per readout) from ``phase``; fire when ``E ≥ E_th``.
 
+    ``threshold`` is one value or one per pixel ``(H, W)``.
+
     At a spike the accumulator keeps ``E mod E_th`` (Eq. 1); one spike at most
     per readout (Eq. 2).  Returns ``(T, H, W) uint8``.
     """
     t_total, h, w = charge.shape
+    thresholds = np.broadcast_to(np.asarray(threshold, dtype=np.float64), (h, w))
     spikes = np.zeros((t_total, h, w), dtype=np.uint8)
     for y in range(h):
         for x in range(w):
+            threshold = thresholds[y, x]
             energy = float(phase[y, x])
             for t in range(t_total):
                 energy += float(charge[t, y, x])

@@ -91,34 +91,36 @@ def mosaic_radiance(rgb: np.ndarray, cfa: str | None) -> np.ndarray:
 
 
 @njit(parallel=True)
-def _fire(charge_per_readout, threshold, state, spikes):
+def _fire(charge_per_readout, thresholds, state, spikes):
     # charge_per_readout (T, H, W) float64 = α·L integrated over each readout
-    # state (H, W) float64 accumulator, updated in place; spikes (T, H, W) uint8 out
+    # thresholds (H, W) float64 E_th per pixel; state (H, W) float64 accumulator, updated in place
+    # spikes (T, H, W) uint8 out.  Rows in parallel; within a row, time outer and x inner so
+    # every access runs along contiguous memory.
     t_total, h, w = charge_per_readout.shape
     for y in prange(h):
-        for x in range(w):
-            e = state[y, x]
-            for t in range(t_total):
-                e += charge_per_readout[t, y, x]
+        for t in range(t_total):
+            for x in range(w):
+                threshold = thresholds[y, x]
+                e = state[y, x] + charge_per_readout[t, y, x]
+                fired = 0
                 if e >= threshold:
-                    spikes[t, y, x] = 1
+                    fired = 1
                     e -= threshold
                     if e >= threshold:  # more than one crossing in a readout: only one is read out
                         e = e % threshold
-                else:
-                    spikes[t, y, x] = 0
-            state[y, x] = e
+                spikes[t, y, x] = fired
+                state[y, x] = e
 
 
-def fire(charge: np.ndarray, threshold: float, state: np.ndarray) -> np.ndarray:
+def fire(charge: np.ndarray, threshold, state: np.ndarray) -> np.ndarray:
     """Integrate-and-fire over readouts (Eq. 1–2), continuing from ``state``.
 
     Parameters
     ----------
     charge : ndarray ``(T, H, W)``
         ``α·L`` collected in each readout (≥ 0, finite).
-    threshold : float
-        ``E_th`` > 0.
+    threshold : float or ndarray ``(H, W)``
+        ``E_th`` > 0, one value or one per pixel (threshold fixed-pattern noise).
     state : ndarray ``(H, W) float64``
         Accumulator at the start, in ``[0, E_th)``; updated in place so a long
         stream can be simulated chunk by chunk with identical results.
@@ -132,10 +134,11 @@ def fire(charge: np.ndarray, threshold: float, state: np.ndarray) -> np.ndarray:
         raise ValueError(f"charge must have shape (T, H, W); got {charge.shape}")
     if not np.all(np.isfinite(charge)) or (charge.size and charge.min() < 0):
         raise ValueError("radiance must be finite and non-negative")
-    if not np.isfinite(threshold) or threshold <= 0:
-        raise ValueError(f"threshold must be positive and finite; got {threshold!r}")
+    thresholds = np.broadcast_to(np.asarray(threshold, dtype=np.float64), charge.shape[1:])
+    if not np.all(np.isfinite(thresholds)) or np.any(thresholds <= 0):
+        raise ValueError("threshold must be positive and finite (every pixel)")
     if state.shape != charge.shape[1:] or state.dtype != np.float64:
         raise ValueError(f"state must be float64 of shape {charge.shape[1:]}; got {state.dtype} {state.shape}")
     spikes = np.empty(charge.shape, dtype=np.uint8)
-    _fire(charge, float(threshold), state, spikes)
+    _fire(charge, np.ascontiguousarray(thresholds), state, spikes)
     return spikes
