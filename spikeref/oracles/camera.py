@@ -2,7 +2,7 @@
 
 import numpy as np
 
-__all__ = ["fire_oracle"]
+__all__ = ["fire_oracle", "mosaic_radiance_oracle"]
 
 
 def fire_oracle(charge, threshold, phase):
@@ -28,3 +28,18 @@ def fire_oracle(charge, threshold, phase):
                     if energy >= threshold:
                         energy = energy % threshold
     return spikes
+
+
+def mosaic_radiance_oracle(rgb, cfa):
+    """Eq. 3: behind the CFA, pixel ``(y, x)`` sees the channel its filter letter names.
+
+    ``cfa`` is a 4-letter pattern of the upright image's top-left 2×2 cell, read row-major.
+    """
+    h, w, _ = rgb.shape
+    channel = {"R": 0, "G": 1, "B": 2}
+    out = np.zeros((h, w), dtype=np.float64)
+    for y in range(h):
+        for x in range(w):
+            letter = cfa[2 * (y % 2) + (x % 2)]
+            out[y, x] = rgb[y, x, channel[letter]]
+    return out

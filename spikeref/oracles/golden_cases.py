@@ -22,7 +22,9 @@ from spikeref.oracles import baselines as o_bl
 from spikeref.oracles import bayer as o_bayer
 from spikeref.oracles import camera as o_cam
 from spikeref.oracles import dat as o_dat
+from spikeref.oracles import effects as o_fx
 from spikeref.simulate import camera as _cam
+from spikeref.simulate import effects as _fx
 
 __all__ = ["GoldenCase", "CASES"]
 
@@ -65,6 +67,35 @@ def _inputs_camera():
     return {"charge": charge, "threshold": np.float64(1.0), "phase": np.array([[0.0, 0.5, 0.875, 0.25]])}
 
 
+def _inputs_camera_fpn():
+    rng = np.random.default_rng(7)
+    thresholds = 1.0 + 0.1 * rng.standard_normal((3, 4))
+    return {"charge": rng.random((60, 3, 4)) * 0.8, "thresholds": thresholds,
+            "phase": rng.random((3, 4)) * thresholds}
+
+
+def _inputs_cfa():
+    return {"rgb": np.random.default_rng(8).random((4, 6, 3))}
+
+
+def _inputs_noise():
+    return {"alpha": np.array([1.0, 0.25, 0.5]), "gamma": np.array([0.002, 0.02, 0.01]),
+            "window": np.array([10.0, 4000.0, 200.0]), "threshold": np.array([1.0, 1.0, 2.0]),
+            "mu": np.array([2000.0, 100.0, 40.0, 10.0, 3.0, 1.2]),
+            "sigma": np.array([200.0, 30.0, 12.0, 3.0, 2.0, 0.5])}
+
+
+def _noise_outputs(i, dark, paper, exact, fraction):
+    return {
+        "dark_count": np.array([dark(a, g, w, t) for a, g, w, t in
+                                zip(i["alpha"], i["gamma"], i["window"], i["threshold"], strict=True)]),
+        "c_i_paper": np.array([paper(m, s) for m, s in zip(i["mu"], i["sigma"], strict=True)]),
+        "c_i_exact": np.array([exact(m, s) for m, s in zip(i["mu"], i["sigma"], strict=True)]),
+        "noise_fraction": np.array([fraction(i["alpha"][0], i["gamma"][0], i["threshold"][0], m, s)
+                                    for m, s in zip(i["mu"], i["sigma"], strict=True)]),
+    }
+
+
 def _inputs_spike_train():
     rng = np.random.default_rng(6)
     rates = np.array([[0.0, 0.004, 0.05], [0.2, 0.5, 1.0]])
@@ -93,6 +124,35 @@ CASES: list[GoldenCase] = [
         _inputs_camera,
         lambda i: {"spikes": o_cam.fire_oracle(i["charge"], float(i["threshold"]), i["phase"])},
         _fire,
+    ),
+    GoldenCase(
+        "eq1_3_fire_fpn", "Eq. 1–3 + threshold FPN", "spikeref.simulate.camera.fire",
+        "spikeref.oracles.camera.fire_oracle",
+        "Integrate-and-fire with one threshold per pixel (threshold fixed-pattern noise).",
+        _inputs_camera_fpn,
+        lambda i: {"spikes": o_cam.fire_oracle(i["charge"], i["thresholds"], i["phase"])},
+        lambda i: {"spikes": _cam.fire(i["charge"], i["thresholds"], np.array(i["phase"], dtype=np.float64))},
+    ),
+    GoldenCase(
+        "eq3_cfa", "Eq. 3", "spikeref.simulate.camera.mosaic_radiance",
+        "spikeref.oracles.camera.mosaic_radiance_oracle",
+        "Linear RGB radiance seen through an RGGB colour filter array.",
+        _inputs_cfa,
+        lambda i: {"mosaic": o_cam.mosaic_radiance_oracle(i["rgb"], "RGGB")},
+        lambda i: {"mosaic": _cam.mosaic_radiance(i["rgb"], "RGGB")},
+        params={"cfa": "RGGB"},
+    ),
+    GoldenCase(
+        "eq6_9_noise", "Eq. 6, 8, 9", "spikeref.simulate.effects.dark_expected_count / inherent_rate_paper / "
+        "inherent_rate_exact / noise_fraction", "spikeref.oracles.effects",
+        "Expected diffuse-noise count αγW/E_th (Eq. 6); C_i of Eq. 8 (paper's integral) and the exact renewal "
+        "rate 1/E[rint T | T ≥ 1]; Eq. 9's noise fraction αγ/E_th + C_i (first α, γ, E_th with each μ, σ).",
+        _inputs_noise,
+        lambda i: _noise_outputs(i, o_fx.dark_expected_count_oracle, o_fx.inherent_rate_paper_oracle,
+                                 o_fx.inherent_rate_exact_oracle, o_fx.noise_fraction_oracle),
+        lambda i: _noise_outputs(i, _fx.dark_expected_count, _fx.inherent_rate_paper, _fx.inherent_rate_exact,
+                                 _fx.noise_fraction),
+        rtol=1e-7,
     ),
     GoldenCase(
         "eq4_accumulate", "Eq. 4", "spikeref.accumulate.accumulate", "spikeref.oracles.accumulate.accumulate_oracle",
