@@ -21,6 +21,10 @@ import numpy as np
 from spikeref.oracles.golden_cases import CASES
 
 
+def _spec(a: np.ndarray) -> dict:
+    return {"dtype": str(a.dtype), "shape": list(a.shape)}
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "golden")
@@ -41,8 +45,8 @@ def main(argv=None) -> None:
             "oracle": case.oracle,
             "description": case.description,
             "params": case.params,
-            "inputs": {k: {"dtype": str(a.dtype), "shape": list(a.shape)} for k, a in arrays.items() if k.startswith("in_")},
-            "outputs": {k: {"dtype": str(a.dtype), "shape": list(a.shape)} for k, a in arrays.items() if k.startswith("out_")},
+            "inputs": {k: _spec(a) for k, a in arrays.items() if k.startswith("in_")},
+            "outputs": {k: _spec(a) for k, a in arrays.items() if k.startswith("out_")},
             "tolerance": {"rtol": case.rtol, "atol": case.atol},
         })
         print(f"{case.name:16s} {', '.join(arrays)}")

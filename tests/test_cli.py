@@ -1,4 +1,5 @@
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -7,11 +8,13 @@ from spikeref.cli import main
 from spikeref.io.dat import write_dat
 from spikeref.io.exr import read_exr
 
+SCENES = Path(__file__).resolve().parents[1] / "examples" / "scenes"
+
 
 def test_info_on_the_embedded_sample(capsys):
     assert main(["info"]) == 0
     out = capsys.readouterr().out
-    assert "planes      400" in out and "128 × 160" in out and "RGGB" in out
+    assert "planes      264" in out and "224 × 256" in out and "RGGB" in out
     assert "plane 3 at (1,1)     B" in out
 
 
@@ -29,9 +32,9 @@ def test_baseline_tfp_writes_video_and_exr(tmp_path):
     assert main(["baseline", "tfp", "-o", str(tmp_path / "v.mp4"), "--exr-dir", str(tmp_path / "exr"), "-W", "20"]) == 0
     assert (tmp_path / "v.mp4").stat().st_size > 1000
     names = sorted(p.name for p in (tmp_path / "exr").iterdir())
-    assert len(names) == 20 and names[0] == "frame_000000.exr"
+    assert len(names) == 264 // 20 and names[0] == "frame_000000.exr"
     frame = read_exr(tmp_path / "exr" / names[0])
-    assert frame.shape == (128, 160, 3) and np.isfinite(frame).all() and 0 <= frame.min() <= frame.max() <= 1
+    assert frame.shape == (224, 256, 3) and np.isfinite(frame).all() and 0 <= frame.min() <= frame.max() <= 1
 
 
 @pytest.mark.parametrize(
@@ -42,6 +45,14 @@ def test_baseline_tfp_writes_video_and_exr(tmp_path):
         (["baseline", "tfp", "-o", "v.mp4", "-W", "0"], "window must be a positive"),
         (["baseline", "tfp", "-o", "v.mp4", "-W", "100000"], "longer than the stream"),
         (["info", "--cfa", "RGB"], "cfa must be one of"),
+        (["simulate", "missing.toml", "-o", "x.dat"], "no such scene file"),
+        (["simulate", str(SCENES / "fan.toml"), "-o", "x.dat", "--effects", "glare"], "unknown effect 'glare'"),
+        (["simulate", str(SCENES / "fan.toml"), "-o", "x.dat", "--effects", "dark_current:gamma"],
+         "expected param=value"),
+        (["simulate", str(SCENES / "fan.toml"), "-o", "x.dat", "--effects", "dark_current:gamma=-1"],
+         "dark_current.gamma"),
+        (["simulate", str(SCENES / "fan.toml"), "-o", "x.npy"], "must be a .dat"),
+        (["noise-check", "--windows", "0"], "windows must be a positive"),
     ],
 )
 def test_bad_input_is_one_clear_line_and_no_output(tmp_path, monkeypatch, capsys, argv, message):
@@ -55,3 +66,31 @@ def test_truncated_dat_names_the_plane_size(tmp_path, capsys):
     (tmp_path / "t.dat").write_bytes(b"\0" * 12501)
     assert main(["info", str(tmp_path / "t.dat")]) == 2
     assert "12500 bytes each" in capsys.readouterr().err
+
+
+def test_simulate_writes_dat_sidecar_and_ground_truth(tmp_path, capsys):
+    out = tmp_path / "sub" / "fan.dat"
+    argv = ["simulate", str(SCENES / "fan.toml"), "-o", str(out), "--planes", "40", "--seed", "3",
+            "--gt", str(tmp_path / "gt.npz"), "--gt-window", "20", "--effects", "random_phase,dark_current:gamma=0.01"]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "40 planes" in text and "random_phase, dark_current" in text
+    side = json.loads(out.with_suffix(".json").read_text())
+    assert side["effects"] == {"random_phase": {}, "dark_current": {"gamma": 0.01}} and side["seed"] == 3
+    with np.load(tmp_path / "gt.npz") as gt:
+        assert gt["gt"].shape == (2, 256, 256, 3)
+    # the file opens without --height/--width thanks to the sidecar
+    assert main(["info", str(out)]) == 0
+    assert "256 × 256" in capsys.readouterr().out
+    # the same command gives the same bytes; --effects none is noise-free
+    assert main(argv[:1] + [argv[1], "-o", str(tmp_path / "again.dat")] + argv[4:]) == 0
+    assert (tmp_path / "again.dat").read_bytes() == out.read_bytes()
+
+
+def test_noise_check_on_a_static_simulation(tmp_path, capsys):
+    out = tmp_path / "chart.dat"
+    assert main(["simulate", str(SCENES / "color_chart.toml"), "-o", str(out), "--planes", "400"]) == 0
+    capsys.readouterr()
+    assert main(["noise-check", str(out), "--windows", "5,10,50,100"]) == 0
+    text = capsys.readouterr().out
+    assert "| 5 | 0.25 |" in text and "R mean abs" in text and "E[I_c]" in text

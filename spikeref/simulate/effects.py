@@ -200,7 +200,10 @@ def parse_effects(spec) -> dict:
     for name, params in spec.items():
         if name not in EFFECTS:
             raise ValueError(f"unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
-        params = {} if params in (None, True) else params
+        if isinstance(params, EFFECTS[name]):  # already parsed
+            out[name] = params
+            continue
+        params = {} if params is None or params is True else params
         if not isinstance(params, dict):
             raise TypeError(f"parameters of effect {name!r} must be a table; got {params!r}")
         known = {f.name for f in fields(EFFECTS[name])}

@@ -134,7 +134,7 @@ class Simulation:
     def __init__(self, scene, seed=0, effects=None, gt_window: int | None = None):
         _check_scene(scene)
         if effects is not None:
-            scene = replace(scene, effects=fx.parse_effects(effects) if not _are_effects(effects) else dict(effects))
+            scene = replace(scene, effects=fx.parse_effects(effects))
         self.scene = scene
         self.seed = resolve_seed(seed)
         self.effects = dict(scene.effects)
@@ -231,10 +231,6 @@ class Simulation:
         if self._gt_sum is not None:
             gt_arr = np.stack(gt) if gt else np.zeros((0, h, w, 3), dtype=np.float32)
         return SimulationChunk(start=start, spikes=spikes, ground_truth=gt_arr, gt_start=gt_start)
-
-
-def _are_effects(effects) -> bool:
-    return isinstance(effects, dict) and all(isinstance(v, tuple(fx.EFFECTS.values())) for v in effects.values())
 
 
 def _default_chunk(height: int, width: int) -> int:
@@ -353,7 +349,7 @@ def simulate(scene, seed=0, *, planes: int | None = None, effects=None, progress
     sim_seed = resolve_seed(seed)
     ran = scene
     if effects is not None:
-        ran = replace(scene, effects=effects if _are_effects(effects) else fx.parse_effects(effects))
+        ran = replace(scene, effects=fx.parse_effects(effects))
     for chunk in iter_simulation(ran, sim_seed, planes=int(total), progress=progress):
         spikes[chunk.start:chunk.start + chunk.spikes.shape[0]] = chunk.spikes
     return SimulationResult(spikes=spikes, scene=ran, seed=sim_seed)
