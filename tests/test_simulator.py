@@ -138,3 +138,23 @@ def test_failed_recording_leaves_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(ValueError, match=".dat"):
         simulate_to_dat(scene(Flat(4, 4)), tmp_path / "x.bin")
+
+
+def test_recording_memory_does_not_grow_with_planes(tmp_path):
+    """Peak traced memory of a chunked recording is the same for 4× the planes (spikes and ground truth)."""
+    import tracemalloc
+
+    sc = scene(Drifting(32, 32, speed=0.2), planes=8, effects=ALL)
+
+    def peak(planes):
+        tracemalloc.start()
+        simulate_to_dat(sc, tmp_path / "m.dat", planes=planes, gt_path=tmp_path / "m.npz", gt_window=10,
+                        chunk_planes=32)
+        _, top = tracemalloc.get_traced_memory()
+        tracemalloc.stop()
+        return top
+
+    peak(64)  # warm-up: compiled kernels, caches
+    small, large = peak(400), peak(1600)
+    assert large <= 1.1 * small + 65536, (small, large)
+    assert (tmp_path / "m.dat").stat().st_size == 1600 * 32 * 32 // 8

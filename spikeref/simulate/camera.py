@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from spikeref._jit import njit, prange
-from spikeref.bayer import cfa_channel_map, validate_cfa
+from spikeref.bayer import cfa_channels, validate_cfa
 
 __all__ = ["Camera", "fire", "mosaic_radiance"]
 
@@ -86,30 +86,36 @@ def mosaic_radiance(rgb: np.ndarray, cfa: str | None) -> np.ndarray:
     h, w = rgb.shape[-3:-1]
     if h % 2 or w % 2:
         raise ValueError(f"a Bayer sensor needs even height and width; got {h}×{w}")
-    chan = cfa_channel_map(h, w, cfa).astype(np.intp)
-    return np.take_along_axis(rgb, chan[..., None], axis=-1)[..., 0]
+    out = np.empty(rgb.shape[:-1], dtype=rgb.dtype)
+    channels = cfa_channels(cfa)
+    for pos, (dy, dx) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):  # one strided copy per Bayer position
+        out[..., dy::2, dx::2] = rgb[..., dy::2, dx::2, channels[pos]]
+    return out
 
 
 @njit(parallel=True)
 def _fire(charge_per_readout, thresholds, state, spikes):
     # charge_per_readout (T, H, W) float64 = α·L integrated over each readout
     # thresholds (H, W) float64 E_th per pixel; state (H, W) float64 accumulator, updated in place
-    # spikes (T, H, W) uint8 out.  Rows in parallel; within a row, time outer and x inner so
-    # every access runs along contiguous memory.
+    # spikes (T, H, W) uint8 out.  Rows in parallel; within a row, time outer and x inner so every
+    # access runs along contiguous memory and the inner loop is branch-free (it vectorises).  The
+    # rare case of more than one crossing in a readout (rate above 1) is fixed after the row.
     t_total, h, w = charge_per_readout.shape
     for y in prange(h):
         for t in range(t_total):
+            several = False
             for x in range(w):
                 threshold = thresholds[y, x]
                 e = state[y, x] + charge_per_readout[t, y, x]
-                fired = 0
-                if e >= threshold:
-                    fired = 1
-                    e -= threshold
-                    if e >= threshold:  # more than one crossing in a readout: only one is read out
-                        e = e % threshold
+                fired = e >= threshold
+                e = e - threshold if fired else e
+                several |= e >= threshold
                 spikes[t, y, x] = fired
                 state[y, x] = e
+            if several:  # only one spike is read out per readout: the extra crossings are lost
+                for x in range(w):
+                    if state[y, x] >= thresholds[y, x]:
+                        state[y, x] = state[y, x] % thresholds[y, x]
 
 
 def fire(charge: np.ndarray, threshold, state: np.ndarray) -> np.ndarray:

@@ -587,6 +587,7 @@ class Scene:
             raise ValueError(f"planes must be a positive integer; got {self.planes!r}")
         if not isinstance(self.camera, Camera):
             raise TypeError(f"camera must be a Camera; got {type(self.camera).__name__}")
+        object.__setattr__(self, "effects", parse_effects(self.effects))
 
     @property
     def height(self) -> int:

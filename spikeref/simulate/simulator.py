@@ -33,7 +33,7 @@ from typing import Iterator
 import numpy as np
 
 from spikeref.simulate import effects as fx
-from spikeref.simulate.camera import fire, mosaic_radiance
+from spikeref.simulate.camera import _fire, mosaic_radiance
 
 __all__ = [
     "BLOCK",
@@ -150,6 +150,7 @@ class Simulation:
                                                 _rng(self.seed, "threshold_fpn"))
         else:
             self.thresholds = np.full(shape, float(cam.threshold))
+        self.thresholds = np.ascontiguousarray(self.thresholds, dtype=np.float64)
         if "random_phase" in e:
             self.state = fx.initial_phase(self.thresholds, _rng(self.seed, "random_phase"))
         else:
@@ -168,6 +169,8 @@ class Simulation:
         self._gt_count = 0
         self._gt_done = 0
         self._static_rgb = None
+        self._static_charge = None
+        self._charge_buf = None
 
     # ------------------------------------------------------------------ rendering
     def _rgb(self, readout: int) -> np.ndarray:
@@ -178,19 +181,43 @@ class Simulation:
             return self._static_rgb
         return readout_radiance(content, readout, self.camera.substeps)
 
-    def _block(self, n: int) -> tuple[np.ndarray, list]:
-        """Simulate the next ``n ≤ BLOCK`` readouts (the current block, possibly cut short)."""
+    def _charge(self, rgb: np.ndarray, out: np.ndarray) -> None:
+        """``α L`` behind the CFA (Eq. 3) into ``out`` ``(H, W)``; a mono sensor sees the mean of R, G, B."""
+        cam = self.camera
+        if cam.cfa is not None:
+            out[...] = mosaic_radiance(rgb, cam.cfa)
+        else:
+            out[...] = rgb.mean(axis=-1)
+        out *= cam.alpha
+
+    def _block(self, n: int, spikes: np.ndarray) -> list:
+        """Simulate the next ``n ≤ BLOCK`` readouts (the current block, possibly cut short) into ``spikes``."""
         cam, e = self.camera, self.effects
         start = self.readout
         if start % BLOCK:
             raise RuntimeError("a simulation can only be cut at block boundaries")
         block = start // BLOCK
         h, w = self.shape
-        charge = np.empty((n, h, w), dtype=np.float64)
         gt_frames = []
+        static = getattr(self.scene.content, "static", False)
+        if static and self._static_charge is None:
+            self._static_charge = np.empty((h, w), dtype=np.float64)
+            self._charge(self._rgb(0), self._static_charge)
+        changes_charge = self.hot is not None or "shot_noise" in e or "dark_current" in e
+        if static and not changes_charge:  # the same charge every readout: a read-only broadcast view
+            charge = np.broadcast_to(self._static_charge, (n, h, w))
+        else:
+            if self._charge_buf is None:  # reused: fresh large arrays would cost a page fault per 4 kB
+                self._charge_buf = np.empty((BLOCK, h, w), dtype=np.float64)
+            charge = self._charge_buf[:n]
         for k in range(n):
-            rgb = self._rgb(start + k)
-            charge[k] = mosaic_radiance(rgb, cam.cfa) if cam.cfa is not None else rgb.mean(axis=-1)
+            if static:
+                if changes_charge:
+                    charge[k] = self._static_charge
+                rgb = self._static_rgb
+            else:
+                rgb = self._rgb(start + k)
+                self._charge(rgb, charge[k])
             if self._gt_sum is not None:
                 self._gt_sum += rgb
                 self._gt_count += 1
@@ -198,18 +225,18 @@ class Simulation:
                     gt_frames.append((self._gt_sum * (cam.alpha / (cam.threshold * self.gt_window))).astype(np.float32))
                     self._gt_sum[...] = 0.0
                     self._gt_count = 0
-        charge *= cam.alpha
         if self.hot is not None:
             charge += self.hot
         if "shot_noise" in e:
             fx.add_shot_noise(charge, e["shot_noise"], cam.threshold, _rng(self.seed, "shot_noise", block))
         if "dark_current" in e:
             fx.add_dark_current(charge, e["dark_current"], cam.alpha, BLOCK, _rng(self.seed, "dark_current", block))
-        spikes = fire(charge, self.thresholds, self.state)
+        # radiance was checked finite and ≥ 0 per readout, and every effect adds charge ≥ 0
+        _fire(charge, self.thresholds, self.state, spikes)
         if self.inherent is not None:
             self.inherent.apply_block(spikes, start, BLOCK, _rng(self.seed, "inherent_noise", block))
         self.readout += n
-        return spikes, gt_frames
+        return gt_frames
 
     def run(self, n: int) -> SimulationChunk:
         """Simulate the next ``n`` readouts; ``n`` must be a multiple of :data:`BLOCK` unless it is the last chunk."""
@@ -223,7 +250,7 @@ class Simulation:
         done = 0
         while done < n:
             m = min(BLOCK, n - done)
-            spikes[done:done + m], frames = self._block(m)
+            frames = self._block(m, spikes[done:done + m])
             gt.extend(frames)
             done += m
         self._gt_done += len(gt)
