@@ -11,6 +11,9 @@ from spikeref.accumulate import accumulate, accumulate_window, window_counts
 from spikeref.baselines import STPParams, tfi, tfp, tfstp
 from spikeref.bayer import bayer_mosaic, bayer_planes, cfa_channels, demosaic_bilinear
 from spikeref.io.dat import load_spikes, read_dat, save_spikes, write_dat
+from spikeref.noise_check import noise_check
+from spikeref.simulate.scenes import Scene, load_scene
+from spikeref.simulate.simulator import ground_truth, simulate
 from spikeref.stream import SpikeStream
 
 __version__ = "0.1.0.dev0"
@@ -32,4 +35,9 @@ __all__ = [
     "tfi",
     "tfstp",
     "STPParams",
+    "Scene",
+    "load_scene",
+    "simulate",
+    "ground_truth",
+    "noise_check",
 ]

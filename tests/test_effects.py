@@ -62,7 +62,9 @@ def test_unlisted_stage_costs_nothing(monkeypatch):
     for name in ("fpn_thresholds", "initial_phase", "hot_pixel_charge", "add_shot_noise", "add_dark_current",
                  "InherentNoiseProcess"):
         monkeypatch.setattr(fx, name, boom)
-    import spikeref.simulate.simulator as sim_mod
+    import importlib
+
+    sim_mod = importlib.import_module("spikeref.simulate.simulator")  # sr.simulate is the function
 
     monkeypatch.setattr(sim_mod, "_rng", boom)
     out = simulate(scene(Flat(8, 8), planes=40), seed=0)
