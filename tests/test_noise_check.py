@@ -99,6 +99,7 @@ def test_plot(tmp_path):
 @pytest.mark.realdata
 def test_real_recording_noise_falls_with_window(real_data):
     with np.load(real_data / "spikingsim_real_spike.npz") as f:
-        spikes = f[f.files[0]]
+        spikes = np.ascontiguousarray(np.moveaxis(f["arr_0"], -1, 0))  # stored (H, W, T)
+    assert spikes.shape == (500, 250, 400)
     res = noise_check(spikes.astype(np.uint8), windows=(5, 10, 20, 50))
     assert np.all(np.diff(res.mean_abs_ratio[:, 0]) < 0)
