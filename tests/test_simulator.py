@@ -158,3 +158,26 @@ def test_recording_memory_does_not_grow_with_planes(tmp_path):
     small, large = peak(400), peak(1600)
     assert large <= 1.1 * small + 65536, (small, large)
     assert (tmp_path / "m.dat").stat().st_size == 1600 * 32 * 32 // 8
+
+
+def test_embedded_sample_is_what_its_script_makes():
+    """spikeref/data/sample.dat is the simulation of sample.toml with the script's seed, bit for bit."""
+    import importlib.util
+
+    from spikeref.sample import SAMPLE_DAT, load_sample, sample_ground_truth, sample_scene
+
+    spec = importlib.util.spec_from_file_location("make_sample", SAMPLE_DAT.parents[2] / "scripts" / "make_sample.py")
+    if spec is None or not spec.loader or not (SAMPLE_DAT.parents[2] / "scripts" / "make_sample.py").is_file():
+        pytest.skip("scripts/ not present (installed package)")
+    make_sample = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_sample)
+    stream = load_sample()
+    scene = sample_scene()
+    assert (len(stream), stream.height, stream.width, stream.cfa) == (264, 224, 256, "RGGB")
+    assert SAMPLE_DAT.stat().st_size < 2_000_000
+    # W = 10, K = 3, L = 3 need ((K - 1) L + 1) W = 70 planes of support: 20 output frames
+    assert (len(stream) - 70) // 10 + 1 >= 20
+    fresh = simulate(scene, seed=make_sample.SEED)
+    assert np.array_equal(stream.window(0, len(stream)), fresh.spikes)
+    gt = sample_ground_truth(10)
+    assert gt.shape == (26, 224, 256, 3) and np.isfinite(gt).all()

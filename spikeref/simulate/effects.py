@@ -243,6 +243,9 @@ def noise_fraction(alpha: float, gamma: float, threshold: float, mu: float, sigm
 
 
 # ---------------------------------------------------------------------------- Eq. 8
+_trapezoid = getattr(np, "trapezoid", None) or np.trapz  # NumPy 2 renamed trapz
+
+
 def _normal_cdf(x):
     return 0.5 * math.erfc(-x / math.sqrt(2.0))
 
@@ -259,7 +262,7 @@ def inherent_rate_paper(mu: float, sigma: float) -> float:
         return 1.0 / mu
     t = np.linspace(max(1.0, mu - 12 * sigma), mu + 12 * sigma, 200001)
     pdf = np.exp(-0.5 * ((t - mu) / sigma) ** 2) / (sigma * math.sqrt(2 * math.pi))
-    return float(np.trapezoid(pdf / t, t))
+    return float(_trapezoid(pdf / t, t))
 
 
 def _check_mu_sigma(mu, sigma):
