@@ -157,3 +157,27 @@ def test_overrides_and_round_trip():
     assert mono.camera.cfa is None
     assert set(CONTENT_TYPES) == {"uniform", "color_chart", "translating_texture", "fan", "hdr_lamp", "video"}
     assert isinstance(scene, Scene)
+
+
+def test_read_frames_from_a_video_a_glob_and_errors(tmp_path):
+    from spikeref.io.frames import read_frames
+    from spikeref.io.video import write_png, write_video
+
+    frames = np.zeros((3, 16, 16, 3), dtype=np.uint8)
+    frames[1] = 128
+    frames[2] = 255
+    write_video(tmp_path / "clip.gif", frames, fps=10)
+    got = read_frames(tmp_path / "clip.gif")
+    assert got.shape == (3, 16, 16, 3)
+    assert abs(int(got[1].mean()) - 128) <= 2 and got[2].min() >= 250
+    assert read_frames(tmp_path / "clip.gif", max_frames=2).shape[0] == 2
+    for i in range(2):
+        write_png(tmp_path / f"p{i}.png", frames[i])
+    assert read_frames(tmp_path / "p*.png").shape == (2, 16, 16, 3)
+    with pytest.raises(FileNotFoundError, match="no files match"):
+        read_frames(tmp_path / "q*.png")
+    (tmp_path / "junk.mp4").write_bytes(b"not a video")
+    with pytest.raises(ValueError, match="cannot read"):
+        read_frames(tmp_path / "junk.mp4")
+    with pytest.raises(ValueError, match="max_frames"):
+        read_frames(tmp_path / "clip.gif", max_frames=0)
