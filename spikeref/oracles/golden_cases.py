@@ -20,9 +20,11 @@ from spikeref.io import dat as _dat
 from spikeref.oracles import accumulate as o_acc
 from spikeref.oracles import baselines as o_bl
 from spikeref.oracles import bayer as o_bayer
+from spikeref.oracles import blindspot as o_bs
 from spikeref.oracles import camera as o_cam
 from spikeref.oracles import dat as o_dat
 from spikeref.oracles import effects as o_fx
+from spikeref.denoise import blindspot as _bs
 from spikeref.simulate import camera as _cam
 from spikeref.simulate import effects as _fx
 
@@ -96,6 +98,11 @@ def _noise_outputs(i, dark, paper, exact, fraction):
     }
 
 
+def _inputs_blindspot():
+    rng = np.random.default_rng(9)
+    return {"plane": rng.random((7, 10)), "outputs": rng.random((16, 7, 10))}
+
+
 def _inputs_spike_train():
     rng = np.random.default_rng(6)
     rates = np.array([[0.0, 0.004, 0.05], [0.2, 0.5, 1.0]])
@@ -153,6 +160,18 @@ CASES: list[GoldenCase] = [
         lambda i: _noise_outputs(i, _fx.dark_expected_count, _fx.inherent_rate_paper, _fx.inherent_rate_exact,
                                  _fx.noise_fraction),
         rtol=1e-7,
+    ),
+    GoldenCase(
+        "eq10_11_blindspot", "Eq. 10–11", "spikeref.denoise.blindspot.masked_volume / mask_aware_average",
+        "spikeref.oracles.blindspot",
+        "Masked volume of a 7×10 plane (4×4 cells, partial cells at the edges; hidden pixels = weighted mean of "
+        "their in-image 8 neighbours, [[.5,1,.5],[1,0,1],[.5,1,.5]] renormalised), and Φ of 16 given outputs.",
+        _inputs_blindspot,
+        lambda i: {"volume": o_bs.masked_volume_oracle(i["plane"]),
+                   "phi": o_bs.mask_aware_average_oracle(i["outputs"])},
+        lambda i: {"volume": _bs.masked_volume(i["plane"]),
+                   "phi": _bs.mask_aware_average(i["outputs"], _bs.cell_masks(7, 10))},
+        rtol=1e-12, atol=1e-14, params={"h_s": 4, "w_s": 4},
     ),
     GoldenCase(
         "eq4_accumulate", "Eq. 4", "spikeref.accumulate.accumulate", "spikeref.oracles.accumulate.accumulate_oracle",
