@@ -7,37 +7,49 @@ equation of the paper is a function here with a literal oracle
 ``docs/equations.md`` for the map.
 """
 
-from spikeref.accumulate import accumulate, accumulate_window, window_counts
-from spikeref.baselines import STPParams, tfi, tfp, tfstp
-from spikeref.bayer import bayer_mosaic, bayer_planes, cfa_channels, demosaic_bilinear
-from spikeref.io.dat import load_spikes, read_dat, save_spikes, write_dat
-from spikeref.noise_check import noise_check
-from spikeref.simulate.scenes import Scene, load_scene
-from spikeref.simulate.simulator import ground_truth, simulate
-from spikeref.stream import SpikeStream
+import importlib
 
 __version__ = "0.1.0.dev0"
 
-__all__ = [
-    "SpikeStream",
-    "read_dat",
-    "write_dat",
-    "load_spikes",
-    "save_spikes",
-    "accumulate",
-    "accumulate_window",
-    "window_counts",
-    "bayer_planes",
-    "bayer_mosaic",
-    "cfa_channels",
-    "demosaic_bilinear",
-    "tfp",
-    "tfi",
-    "tfstp",
-    "STPParams",
-    "Scene",
-    "load_scene",
-    "simulate",
-    "ground_truth",
-    "noise_check",
-]
+# Public names and the module that defines each.  They are imported on first use (PEP 562),
+# so ``import spikeref`` is quick and modules that need no Numba (the .dat reader, the
+# training code on a machine without Numba) import without it.
+_EXPORTS = {
+    "SpikeStream": "spikeref.stream",
+    "read_dat": "spikeref.io.dat",
+    "write_dat": "spikeref.io.dat",
+    "load_spikes": "spikeref.io.dat",
+    "save_spikes": "spikeref.io.dat",
+    "accumulate": "spikeref.accumulate",
+    "accumulate_window": "spikeref.accumulate",
+    "window_counts": "spikeref.accumulate",
+    "bayer_planes": "spikeref.bayer",
+    "bayer_mosaic": "spikeref.bayer",
+    "cfa_channels": "spikeref.bayer",
+    "demosaic_bilinear": "spikeref.bayer",
+    "tfp": "spikeref.baselines",
+    "tfi": "spikeref.baselines",
+    "tfstp": "spikeref.baselines",
+    "STPParams": "spikeref.baselines",
+    "Scene": "spikeref.simulate.scenes",
+    "load_scene": "spikeref.simulate.scenes",
+    "simulate": "spikeref.simulate.simulator",
+    "ground_truth": "spikeref.simulate.simulator",
+    "noise_check": "spikeref.noise_check",
+    "Denoiser": "spikeref.denoise.denoiser",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'spikeref' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

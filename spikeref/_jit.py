@@ -10,6 +10,10 @@ switched on at import time only when a writable cache location exists:
 Set ``SPIKEREF_NUMBA_CACHE=0`` to turn caching off.  ``NUMBA_DISABLE_JIT=1``
 is honoured by Numba itself: the kernels then run as plain Python (slowly),
 which the tests use to check that oracle and kernel agree.
+
+Numba is a runtime dependency.  Where it is not installed (a training machine that only
+runs :mod:`spikeref.denoise.train`, say), the package still imports and the kernels run as
+plain Python, exactly as under ``NUMBA_DISABLE_JIT=1``.
 """
 
 from __future__ import annotations
@@ -17,11 +21,15 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numba
+try:
+    import numba
+except ImportError:  # pragma: no cover - exercised only on machines without Numba
+    numba = None
 
-__all__ = ["njit", "prange", "caching_enabled"]
+__all__ = ["njit", "prange", "caching_enabled", "numba_available"]
 
-prange = numba.prange
+numba_available: bool = numba is not None
+prange = numba.prange if numba is not None else range
 
 
 def _writable(directory: Path) -> bool:
@@ -33,7 +41,7 @@ def _writable(directory: Path) -> bool:
 
 
 def _decide_caching() -> bool:
-    if os.environ.get("SPIKEREF_NUMBA_CACHE", "1") == "0":
+    if numba is None or os.environ.get("SPIKEREF_NUMBA_CACHE", "1") == "0":
         return False
     if os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0"):
         return False
@@ -51,6 +59,10 @@ def njit(*args, parallel: bool = False, **kwargs):
 
     Used as ``@njit`` or ``@njit(parallel=True)``.
     """
+    if numba is None:
+        if len(args) == 1 and callable(args[0]) and not kwargs:
+            return args[0]
+        return lambda function: function
     options = {"cache": caching_enabled, "nogil": True, "parallel": parallel}
     options.update(kwargs)
     if len(args) == 1 and callable(args[0]) and not kwargs:

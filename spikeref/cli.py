@@ -1,4 +1,4 @@
-"""``spikeref`` command line: inspect spike files, run baselines (and later the method).
+"""``spikeref`` command line: inspect, simulate, run baselines, denoise, train.
 
 Every subcommand prints ``--help`` with units and defaults.  Spike files are
 ``.dat`` (no header: give ``--height/--width``, or keep a ``NAME.json`` with
@@ -43,34 +43,15 @@ def _add_input_options(p: argparse.ArgumentParser, optional_file: bool = False) 
                    help="readout rate in planes per second (default 20000)")
 
 
-def _sidecar(path: Path) -> dict:
-    meta_path = path.with_suffix(".json")
-    if meta_path.is_file():
-        try:
-            return json.loads(meta_path.read_text())
-        except json.JSONDecodeError as exc:
-            raise CliError(f"{meta_path}: not valid JSON ({exc})") from None
-    return {}
-
-
 def open_input(args):
-    """Open the stream named by the parsed input options."""
-    from spikeref.io.dat import load_spikes
+    """Open the stream named by the parsed input options (sizes from the NAME.json sidecar if not given)."""
+    from spikeref.io.dat import open_spike_file
 
     path = args.file if getattr(args, "file", None) is not None else SAMPLE
     if not path.exists():
         raise CliError(f"no such file: {path}")
-    meta = _sidecar(path) if path.suffix.lower() == ".dat" else {}
-    cfa = args.cfa if args.cfa is not None else meta.get("cfa")
-    if isinstance(cfa, str) and cfa.lower() == "mono":
-        cfa = None
-    kw = {"rate_hz": args.rate_hz or meta.get("rate_hz", 20000.0)}
-    if path.suffix.lower() == ".dat":
-        kw["file_width"] = args.file_width or meta.get("file_width")
-        height = args.height or meta.get("height", 250)
-        width = args.width or meta.get("width", 400)
-        return load_spikes(path, height=height, width=width, cfa=cfa, **kw)
-    return load_spikes(path, cfa=cfa, **kw)
+    return open_spike_file(path, height=args.height, width=args.width, cfa=args.cfa,
+                           file_width=args.file_width, rate_hz=args.rate_hz)
 
 
 # ------------------------------------------------------------------------------ info
@@ -114,6 +95,55 @@ def cmd_baseline(args) -> int:
         stream, args.method, args.output, exr_dir=args.exr_dir, window=args.window, every=args.every,
         fps=args.fps, half=args.half, progress=True,
     )
+    return 0
+
+
+# -------------------------------------------------------------------------- denoise
+def cmd_denoise(args) -> int:
+    from tqdm import tqdm
+
+    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.render import FrameSink
+
+    if args.output is None and args.exr_dir is None:
+        raise CliError("give -o VIDEO, --exr-dir DIR, or both")
+    stream = open_input(args)
+    den = Denoiser.load(args.weights, mode=args.mode, lam=args.lam)
+    total = (len(stream) - args.start) // args.window if args.window > 0 else 0
+    if args.frames is not None:
+        total = min(total, args.frames)
+    with FrameSink(args.output, args.exr_dir, fps=args.fps, half=args.half) as sink:
+        bar = tqdm(total=total, desc=f"denoise ({args.mode})", unit="frame")
+        for k, frame in den.frames(stream, args.window, start=args.start, count=args.frames):
+            sink.add(k, frame)
+            bar.update(1)
+        bar.close()
+    return 0
+
+
+# -------------------------------------------------------------------------- train
+def cmd_train(args) -> int:
+    try:
+        from spikeref.denoise.train import TrainConfig, train
+    except ImportError as exc:
+        raise CliError(f"training needs PyTorch: pip install 'spikeref[train]' ({exc})") from None
+    from spikeref.io.dat import open_spike_file
+
+    streams = []
+    for path in args.data:
+        if not path.exists():
+            raise CliError(f"no such file: {path}")
+        streams.append(open_spike_file(path, height=args.height, width=args.width, file_width=args.file_width))
+    cfg = TrainConfig(width=args.channels, steps=args.steps, batch=args.batch, patch=args.patch, lr=args.lr,
+                      window_min=args.window_min, window_max=args.window_max,
+                      checkpoint_every=args.checkpoint_every, seed=args.seed)
+    describe = {"command": "spikeref train " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else "spikeref train",
+                "data": [{"file": Path(s.path).name, "planes": len(s), "height": s.height, "width": s.width}
+                         for s in streams]}
+    summary = train(streams, args.output, cfg, checkpoint=args.checkpoint, resume=args.resume,
+                    device=args.device, describe=describe)
+    print(f"wrote {args.output}: {summary['steps']} steps in {summary['seconds']:.1f} s, "
+          f"final loss {summary['final_loss']:.4g}")
     return 0
 
 
@@ -221,6 +251,52 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
     p.add_argument("--half", action="store_true", help="write float16 EXR (default float32)")
     p.set_defaults(func=cmd_baseline)
+
+    p = sub.add_parser("denoise", help="denoised colour frames Ψ[D(I)] of a spike file to MP4 / EXR",
+                       description="Accumulate windows of W planes (Eq. 4), denoise the four Bayer planes with the "
+                                   "self-supervised U-Net (§4.1; bundled weights unless --weights) and demosaic "
+                                   "(Ψ). Frames are linear RGB in spikes per readout; the video uses one exposure.",
+                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    _add_input_options(p, optional_file=True)
+    p.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif)")
+    p.add_argument("--exr-dir", type=Path, default=None, help="also write linear EXR frames here")
+    p.add_argument("-W", "--window", type=int, default=10,
+                   help="window in planes (10 planes = 0.5 ms at 20 kHz → 2000 FPS)")
+    p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
+                   help="visible: one network pass; blind: Eq. 10-11, 16 passes; mixed: (D + λf)/(1 + λ)")
+    p.add_argument("--lam", type=float, default=2.0, help="λ of the mixed mode")
+    p.add_argument("--weights", type=Path, default=None, help="weights .npz (default: the bundled weights)")
+    p.add_argument("--start", type=int, default=0, help="first plane")
+    p.add_argument("--frames", type=int, default=None, help="number of frames (default: every whole window)")
+    p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
+    p.add_argument("--half", action="store_true", help="write float16 EXR (default float32)")
+    p.set_defaults(func=cmd_denoise)
+
+    p = sub.add_parser("train", help="train the denoiser on unlabeled spike files (needs spikeref[train])",
+                       description="Self-supervised training of the denoising U-Net (Blind2Unblind: blind-spot "
+                                   "volume Eq. 10-11, re-visible loss Eq. 12 with λ 2→20). Reads spike files only, "
+                                   "never ground truth. Writes NumPy weights for `spikeref denoise --weights`, and "
+                                   "a checkpoint every --checkpoint-every steps; --resume continues from it.",
+                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("data", type=Path, nargs="+", help="spike files (.dat with NAME.json, .npy, .npz), colour or mono")
+    p.add_argument("-o", "--output", type=Path, required=True, help="weights file to write (.npz)")
+    p.add_argument("--channels", type=int, default=32, help="U-Net channel width C")
+    p.add_argument("--steps", type=int, default=20000, help="optimiser steps")
+    p.add_argument("--batch", type=int, default=8, help="crops per step (each gives its four 2×2 phases)")
+    p.add_argument("--patch", type=int, default=128, help="training image side on the plane grid, pixels "
+                   "(multiple of 32; the mosaic crop is twice this)")
+    p.add_argument("--lr", type=float, default=3e-4, help="Adam learning rate (cosine decay to 1 %%)")
+    p.add_argument("--window-min", type=int, default=5, help="shortest window W, planes")
+    p.add_argument("--window-max", type=int, default=200, help="longest window W, planes (log-uniform draw)")
+    p.add_argument("--seed", type=int, default=0, help="seed of crops, augmentation and initial weights")
+    p.add_argument("--checkpoint", type=Path, default=None, help="checkpoint file (default: OUTPUT.ckpt)")
+    p.add_argument("--checkpoint-every", type=int, default=500, help="steps between checkpoints")
+    p.add_argument("--resume", action="store_true", help="continue from the checkpoint if it exists")
+    p.add_argument("--device", default=None, help="torch device, e.g. cpu or cuda (default: cuda if available)")
+    p.add_argument("--height", type=int, default=None, help="image height of .dat files without NAME.json")
+    p.add_argument("--width", type=int, default=None, help="image width of .dat files without NAME.json")
+    p.add_argument("--file-width", type=int, default=None, help="stored row width of padded .dat rows")
+    p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("simulate", help="simulate a scene (TOML) into a .dat spike file, with ground truth",
                        description="Simulate a chromatic spike camera (Eq. 1–3 and the effects the scene lists, "

@@ -1,13 +1,31 @@
-"""Self-supervised chromatic spike denoising (§4.1): blind-spot volume and averaging (Eq. 10–11), Eq. 12 loss."""
+"""Self-supervised chromatic spike denoising (§4.1): U-Net inference, blind-spot volume and
+averaging (Eq. 10–11), the Eq. 12 loss; training lives in :mod:`spikeref.denoise.train` (PyTorch)."""
 
-from spikeref.denoise.blindspot import blindspot_denoise, cell_masks, mask_aware_average, masked_volume
-from spikeref.denoise.revisible import lambda_schedule, revisible_loss
+import importlib
 
-__all__ = [
-    "blindspot_denoise",
-    "cell_masks",
-    "masked_volume",
-    "mask_aware_average",
-    "revisible_loss",
-    "lambda_schedule",
-]
+_EXPORTS = {
+    "blindspot_denoise": "spikeref.denoise.blindspot",
+    "cell_masks": "spikeref.denoise.blindspot",
+    "masked_volume": "spikeref.denoise.blindspot",
+    "mask_aware_average": "spikeref.denoise.blindspot",
+    "revisible_loss": "spikeref.denoise.revisible",
+    "lambda_schedule": "spikeref.denoise.revisible",
+    "UNet": "spikeref.denoise.unet",
+    "UNetSpec": "spikeref.denoise.unet",
+    "Denoiser": "spikeref.denoise.denoiser",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'spikeref.denoise' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -32,6 +32,8 @@ __all__ = [
     "write_dat",
     "DatWriter",
     "load_spikes",
+    "open_spike_file",
+    "read_sidecar",
     "save_spikes",
 ]
 
@@ -266,6 +268,42 @@ def load_spikes(path, height: int | None = None, width: int | None = None, cfa: 
         raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")
     arr = check_spikes(arr, name=f"spikes in {path.name}")
     return SpikeStream.from_array(arr, cfa=cfa, path=path, **{k: v for k, v in kw.items() if k == "rate_hz"})
+
+
+def read_sidecar(path) -> dict:
+    """The ``NAME.json`` beside a ``NAME.dat`` (sizes, CFA, rate written by ``spikeref simulate``), or ``{}``."""
+    import json
+
+    meta_path = Path(path).with_suffix(".json")
+    if not meta_path.is_file():
+        return {}
+    try:
+        meta = json.loads(meta_path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{meta_path}: not valid JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise ValueError(f"{meta_path}: expected a JSON object")
+    return meta
+
+
+def open_spike_file(path, height: int | None = None, width: int | None = None, cfa: str | None = None,
+                    file_width: int | None = None, rate_hz: float | None = None):
+    """Open a spike file, taking what is not given from its ``NAME.json`` sidecar (``.dat``).
+
+    Arguments override the sidecar; without either, ``.dat`` defaults to 250×400 mono at
+    20 kHz.  ``cfa="mono"`` means no colour filter.
+    """
+    path = Path(path)
+    meta = read_sidecar(path) if path.suffix.lower() == ".dat" else {}
+    cfa = cfa if cfa is not None else meta.get("cfa")
+    if isinstance(cfa, str) and cfa.lower() == "mono":
+        cfa = None
+    kw = {"rate_hz": rate_hz or meta.get("rate_hz", 20000.0)}
+    if path.suffix.lower() == ".dat":
+        kw["file_width"] = file_width or meta.get("file_width")
+        return load_spikes(path, height=height or meta.get("height", 250), width=width or meta.get("width", 400),
+                           cfa=cfa, **kw)
+    return load_spikes(path, cfa=cfa, **kw)
 
 
 def save_spikes(path, spikes) -> Path:

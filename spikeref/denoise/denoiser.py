@@ -1,0 +1,91 @@
+"""The denoiser as users call it: bundled weights, the three inference modes, frames of a stream.
+
+``Denoiser.load()`` reads the bundled weights (:data:`DEFAULT_WEIGHTS`, trained here on
+simulated scenes — see ``docs/results.md``); ``den(planes, mode)`` denoises Bayer planes of
+firing rates with the shared one-channel U-Net (:mod:`spikeref.denoise.unet`) in the mode
+asked for (:mod:`spikeref.denoise.blindspot`); :meth:`Denoiser.frames` gives ``Ψ[D(I)]`` for
+the windows of a spike stream (Eq. 4, then D, then the bilinear demosaic Ψ).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+from spikeref.denoise.blindspot import MODES, blindspot_denoise
+from spikeref.denoise.unet import UNet
+
+__all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR"]
+
+WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
+#: The bundled weights used when none are named.
+DEFAULT_WEIGHTS = WEIGHTS_DIR / "b2u_w32.npz"
+
+
+class Denoiser:
+    """``D``: a U-Net plus an inference mode.
+
+    Parameters
+    ----------
+    unet : UNet
+        The network ``f_θ`` (one channel, shared by the four Bayer planes).
+    mode : {"visible", "blind", "mixed"}
+        Default inference mode: ``visible`` = ``f(I)`` (one pass, default); ``blind`` = Eq. 10–11
+        (16 passes); ``mixed`` = ``(D(I) + λ f(I)) / (1 + λ)`` (17 passes).
+    lam : float
+        ``λ`` of the mixed mode.
+    cell : int
+        Blind-spot cell (4 → 16 masks).
+    """
+
+    def __init__(self, unet: UNet, mode: str = "visible", lam: float = 2.0, cell: int = 4):
+        if not isinstance(unet, UNet):
+            raise TypeError(f"unet must be a spikeref.denoise.unet.UNet; got {type(unet).__name__}")
+        if mode not in MODES:
+            raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+        self.unet, self.mode, self.lam, self.cell = unet, mode, float(lam), cell
+
+    @classmethod
+    def load(cls, path=None, **kw) -> "Denoiser":
+        """From a weights ``.npz`` (default: the bundled :data:`DEFAULT_WEIGHTS`)."""
+        path = Path(path) if path is not None else DEFAULT_WEIGHTS
+        return cls(UNet.load(path), **kw)
+
+    def __repr__(self) -> str:
+        return f"Denoiser({self.unet!r}, mode={self.mode!r})"
+
+    def __call__(self, planes, mode: str | None = None) -> np.ndarray:
+        """Denoise firing-rate planes ``(..., h, w)`` float (e.g. ``(4, H/2, W/2)``); same shape, float32."""
+        arr = np.asarray(planes)
+        if arr.ndim < 2:
+            raise ValueError(f"planes must have shape (..., h, w); got {arr.shape}")
+        if not np.issubdtype(arr.dtype, np.floating):
+            raise TypeError(f"planes must be floating point firing rates; got {arr.dtype}")
+        return blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
+                                 cell=self.cell, lam=self.lam)
+
+    def frames(self, stream, window: int = 10, start: int = 0, count: int | None = None,
+               mode: str | None = None) -> Iterator[tuple[int, np.ndarray]]:
+        """Yield ``(k, Ψ[D(I_k)])`` for windows ``k`` of ``stream`` (Eq. 4 with ``W = window``).
+
+        Frames are linear RGB ``(H, W, 3) float32`` in spikes per readout for a colour stream
+        (monochrome: ``(H, W)``; the denoiser runs on the four 2×2 phases).  ``start`` is the
+        first plane; ``count`` windows (default: every whole window).
+        """
+        from spikeref.accumulate import accumulate
+        from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
+
+        if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
+            raise ValueError(f"window must be a positive number of planes; got {window!r}")
+        if stream.height % 2 or stream.width % 2:
+            raise ValueError(f"the stream must have even height and width; got {stream.height}×{stream.width}")
+        total = (len(stream) - start) // window
+        if total < 1:
+            raise ValueError(f"window={window} from plane {start} is longer than the stream ({len(stream)} planes)")
+        count = total if count is None else min(int(count), total)
+        for k in range(count):
+            rates = accumulate(stream, window, start=start + k * window, count=1)[0]
+            clean = bayer_mosaic(self(bayer_planes(rates), mode))
+            yield k, (demosaic_bilinear(clean, stream.cfa) if stream.cfa else clean)

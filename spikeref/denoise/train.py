@@ -1,0 +1,329 @@
+"""Self-supervised training of the denoiser, Eq. 10–12 (§4.1, Blind2Unblind), in PyTorch (extra ``train``).
+
+Training reads **unlabeled** spike streams only (``.dat`` with its ``NAME.json`` sidecar, or
+``.npy``/``.npz``; simulated or real, colour or monochrome): no ground truth is read anywhere.
+One step:
+
+1. draw ``batch`` crops: a stream, a window length ``W`` (log-uniform integer in
+   ``[window_min, window_max]``, so that each octave of ``W`` is drawn equally often — short
+   windows, where noise is worst, are not swamped by long ones), a start plane, a crop of
+   ``2·patch × 2·patch`` pixels at an even offset;
+2. Eq. 4: count the crop's spikes over the window and divide by ``W`` (firing rates), split
+   the mosaic into its four 2×2 phases (the Bayer planes; for a monochrome stream, four planes
+   of genuine sensor noise), each a one-channel training image; random flips and 90° turns;
+3. Eq. 10–11: the masked volume Ω (16 masks, hidden pixels filled by the weighted mean of
+   their 8 neighbours), the network on every masked image, mask-aware averaging Φ → ``D(I)``;
+   the network on the visible image → ``f(I)`` (without gradient: the stop-gradient of Eq. 12);
+4. Eq. 12: ``mean((D + λ f − (λ+1) I)²) + η mean((D − I)²)``, ``η = 1``, ``λ`` rising linearly
+   from 2 to 20 over the run; Adam, learning rate on a cosine from ``lr`` to ``lr/100``.
+
+A checkpoint (model, optimiser, step, random state, loss log) is written atomically every
+``checkpoint_every`` steps and at the end; :func:`train` given ``resume=True`` continues from it
+and draws the same crops an uninterrupted run would have drawn.  The result is exported to
+the NumPy weights format of :mod:`spikeref.denoise.unet`.
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch.nn import functional as F
+
+from spikeref.denoise.blindspot import FILL_KERNEL, cell_masks
+from spikeref.denoise.revisible import lambda_schedule, revisible_loss_torch
+from spikeref.denoise.torch_unet import TorchUNet, to_numpy_unet
+from spikeref.denoise.unet import UNetSpec
+
+__all__ = ["TrainConfig", "CropSampler", "masked_volume_torch", "blind_and_visible", "train"]
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Hyper-parameters of a training run (defaults: the bundled weights' run, see docs/results.md).
+
+    Parameters
+    ----------
+    width, depth : int
+        U-Net shape (:class:`~spikeref.denoise.unet.UNetSpec`).
+    steps : int
+        Optimiser steps.
+    batch : int
+        Crops per step; each gives four one-channel images (its 2×2 phases).
+    patch : int
+        Side of a training image on the plane grid, pixels (a multiple of ``2**depth``); the
+        mosaic crop is ``2·patch`` pixels square.
+    lr : float
+        Adam learning rate at the start (cosine decay to ``lr/100``).
+    window_min, window_max : int
+        Range of the window length ``W`` in planes (the paper's 5…200).
+    lam_start, lam_end, eta : float
+        ``λ`` schedule and ``η`` of Eq. 12 (2 → 20, 1).
+    cell : int
+        Blind-spot cell ``h_s = w_s`` (4 → 16 masks).
+    checkpoint_every : int
+        Steps between checkpoints.
+    seed : int
+        Seed of the crops, augmentations and initial weights.
+    """
+
+    width: int = 32
+    depth: int = 5
+    steps: int = 20000
+    batch: int = 8
+    patch: int = 128
+    lr: float = 3e-4
+    window_min: int = 5
+    window_max: int = 200
+    lam_start: float = 2.0
+    lam_end: float = 20.0
+    eta: float = 1.0
+    cell: int = 4
+    checkpoint_every: int = 500
+    seed: int = 0
+
+    def __post_init__(self):
+        for name in ("width", "depth", "steps", "batch", "patch", "window_min", "window_max", "cell",
+                     "checkpoint_every"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"{name} must be a positive integer; got {v!r}")
+        if self.window_max < self.window_min:
+            raise ValueError(f"window_max ({self.window_max}) must be ≥ window_min ({self.window_min})")
+        if self.patch % (2**self.depth):
+            raise ValueError(f"patch ({self.patch}) must be a multiple of 2**depth = {2**self.depth}")
+        for name in ("lr", "lam_start", "lam_end", "eta"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite number ≥ 0; got {v!r}")
+        UNetSpec(width=self.width, depth=self.depth)  # validates the shape
+
+    @property
+    def spec(self) -> UNetSpec:
+        return UNetSpec(width=self.width, depth=self.depth)
+
+
+# ----------------------------------------------------------------------------- data
+class CropSampler:
+    """Random window-rate crops from unlabeled spike streams (steps 1–2 of the module doc).
+
+    Parameters
+    ----------
+    streams : list of SpikeStream
+        Packed (memory-mapped ``.dat``) or in-memory streams, each at least ``2·patch`` pixels
+        high and wide and ``window_min`` planes long.
+    patch, window_min, window_max : int
+        See :class:`TrainConfig`.
+    device : torch.device
+        Where the spike bits are unpacked and counted.
+    """
+
+    def __init__(self, streams, patch: int, window_min: int, window_max: int, device="cpu"):
+        if not streams:
+            raise ValueError("no training streams given")
+        self.streams = list(streams)
+        self.patch = int(patch)
+        self.window_min, self.window_max = int(window_min), int(window_max)
+        self.device = torch.device(device)
+        size = 2 * self.patch
+        for s in self.streams:
+            name = s.path.name if s.path is not None else repr(s)
+            if s.height < size or s.width < size:
+                raise ValueError(f"{name}: {s.height}×{s.width} pixels is smaller than the training crop "
+                                 f"{size}×{size} (2·patch); choose a smaller patch")
+            if len(s) < self.window_min:
+                raise ValueError(f"{name}: {len(s)} planes is shorter than window_min = {self.window_min}")
+        self._shifts = torch.arange(8, dtype=torch.uint8, device=self.device)
+
+    def _window(self, rng: np.random.Generator, stream) -> int:
+        hi = min(self.window_max, len(stream))
+        lo = min(self.window_min, hi)
+        return int(min(hi, max(lo, round(math.exp(rng.uniform(math.log(lo), math.log(hi + 0.5)))))))
+
+    def _counts(self, stream, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
+        """Spike counts of planes ``[t, t+w)`` over the upright crop ``[y0, y0+s) × [x0, x0+s)``."""
+        s = 2 * self.patch
+        if stream.array is not None:
+            block = np.ascontiguousarray(stream.array[t : t + w, y0 : y0 + s, x0 : x0 + s])
+            return torch.from_numpy(block).to(self.device).sum(0, dtype=torch.int32)
+        # Packed .dat: stored row r is image row H-1-r; pixel (r, c) is bit r*Wf + col_offset + c, LSB first.
+        h, wf = stream.height, stream.file_width
+        r_lo = h - (y0 + s)  # stored rows r_lo .. r_lo+s-1 hold image rows y0+s-1 .. y0
+        bit_lo = r_lo * wf + stream.col_offset + x0
+        byte_lo = bit_lo // 8
+        byte_hi = ((r_lo + s - 1) * wf + stream.col_offset + x0 + s + 7) // 8
+        raw = torch.from_numpy(np.array(stream.packed[t : t + w, byte_lo:byte_hi])).to(self.device)
+        bits = (raw[..., None] >> self._shifts) & 1  # (w, nbytes, 8), LSB first
+        counts = bits.sum(0, dtype=torch.int32).reshape(-1)
+        starts = torch.arange(s, device=self.device) * wf + (bit_lo - 8 * byte_lo)
+        idx = starts[:, None] + torch.arange(s, device=self.device)[None, :]
+        return counts[idx].flip(0)  # stored order is bottom-up
+
+    def sample(self, rng: np.random.Generator, batch: int) -> torch.Tensor:
+        """``(4·batch, 1, patch, patch) float32`` firing-rate images (Eq. 4, per 2×2 phase), augmented."""
+        s = 2 * self.patch
+        out = []
+        for _ in range(batch):
+            stream = self.streams[int(rng.integers(len(self.streams)))]
+            w = self._window(rng, stream)
+            t = int(rng.integers(0, len(stream) - w + 1))
+            y0 = 2 * int(rng.integers(0, (stream.height - s) // 2 + 1))
+            x0 = 2 * int(rng.integers(0, (stream.width - s) // 2 + 1))
+            rates = self._counts(stream, t, w, y0, x0).to(torch.float32) / w
+            planes = rates.reshape(self.patch, 2, self.patch, 2).permute(1, 3, 0, 2).reshape(4, self.patch, self.patch)
+            for plane in planes:
+                k = int(rng.integers(4))
+                if rng.random() < 0.5:
+                    plane = plane.flip(-1)
+                out.append(torch.rot90(plane, k, (0, 1)))
+        return torch.stack(out)[:, None].contiguous()
+
+
+# ----------------------------------------------------------------------------- Eq. 10–11 in torch
+def masked_volume_torch(x: torch.Tensor, cell: int = 4) -> tuple[torch.Tensor, torch.Tensor]:
+    """Ω of Eq. 10 for ``(N, 1, H, W)``: returns the volume ``(cell², N, 1, H, W)`` and masks ``(cell², H, W)``.
+
+    Same rule as :func:`spikeref.denoise.blindspot.masked_volume` (a test holds them equal):
+    hidden pixels hold the weighted mean of their 8 neighbours, renormalised at the border.
+    """
+    h, w = x.shape[-2:]
+    kernel = torch.as_tensor(FILL_KERNEL, dtype=x.dtype, device=x.device)[None, None]
+    num = F.conv2d(x, kernel, padding=1)
+    den = F.conv2d(torch.ones((1, 1, h, w), dtype=x.dtype, device=x.device), kernel, padding=1)
+    fill = num / den
+    masks = torch.as_tensor(cell_masks(h, w, cell), device=x.device)
+    volume = torch.where(masks[:, None, None], fill[None], x[None])
+    return volume, masks
+
+
+def blind_and_visible(model, x: torch.Tensor, cell: int = 4) -> tuple[torch.Tensor, torch.Tensor]:
+    """``D(I)`` (Eq. 10–11, with gradient) and ``f(I)`` (visible, without gradient) for ``(N, 1, H, W)``."""
+    volume, masks = masked_volume_torch(x, cell)
+    c, n = volume.shape[:2]
+    out = model(volume.reshape((c * n,) + x.shape[1:])).reshape(volume.shape)
+    m = masks[:, None, None].to(out.dtype)
+    blind = (out * m).sum(0) / m.sum(0)
+    with torch.no_grad():
+        visible = model(x)
+    return blind, visible
+
+
+# ----------------------------------------------------------------------------- the loop
+def _learning_rate(cfg: TrainConfig, step: int) -> float:
+    progress = step / max(1, cfg.steps - 1)
+    return cfg.lr * (0.01 + 0.99 * 0.5 * (1.0 + math.cos(math.pi * progress)))
+
+
+def _save_checkpoint(path: Path, state: dict) -> None:
+    from spikeref.io.atomic import atomic_write
+
+    def write(tmp):
+        torch.save(state, tmp)
+
+    atomic_write(path, write)
+
+
+def train(streams, output, config: TrainConfig | None = None, checkpoint=None, resume: bool = False,
+          device: str | None = None, progress: bool = True, describe: dict | None = None):
+    """Train the denoiser on unlabeled streams and write NumPy weights to ``output`` (``.npz``).
+
+    Parameters
+    ----------
+    streams : list of SpikeStream
+        Training data (no ground truth).
+    output : path
+        Weights file to write (:meth:`spikeref.denoise.unet.UNet.save` format).
+    config : TrainConfig
+    checkpoint : path, optional
+        Checkpoint file (default ``<output>.ckpt``).
+    resume : bool
+        Continue from ``checkpoint`` if it exists (its configuration must equal ``config``).
+    device : str, optional
+        ``"cuda"``, ``"cpu"``…; default CUDA when available.
+    describe : dict, optional
+        Extra facts to store in the weights' metadata (the command line, the data files).
+
+    Returns
+    -------
+    dict
+        ``steps``, ``final_loss`` (mean of the last 5 % of steps), ``seconds``, ``losses``
+        (one mean per 1 % of the run).
+    """
+    from tqdm import tqdm
+
+    cfg = config or TrainConfig()
+    output = Path(output)
+    checkpoint = Path(checkpoint) if checkpoint is not None else output.with_name(output.name + ".ckpt")
+    dev = torch.device(device or ("cuda" if torch.cuda.is_available() else "cpu"))
+    if dev.type == "cuda":
+        torch.backends.cuda.matmul.allow_tf32 = True
+        torch.backends.cudnn.allow_tf32 = True
+        torch.backends.cudnn.benchmark = True
+    sampler = CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, device=dev)
+
+    torch.manual_seed(cfg.seed)
+    model = TorchUNet(cfg.spec).to(dev)
+    opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
+    rng = np.random.default_rng(cfg.seed)
+    step, losses, seconds = 0, [], 0.0
+    if resume and checkpoint.is_file():
+        state = torch.load(checkpoint, map_location=dev, weights_only=False)
+        if state["config"] != asdict(cfg):
+            raise ValueError(f"{checkpoint}: written with another configuration {state['config']}; "
+                             "use the same options or another checkpoint path")
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optimizer"])
+        rng.bit_generator.state = state["rng"]
+        step, losses, seconds = state["step"], list(state["losses"]), float(state["seconds"])
+
+    def snapshot():
+        return {"config": asdict(cfg), "model": model.state_dict(), "optimizer": opt.state_dict(),
+                "rng": rng.bit_generator.state, "step": step, "losses": losses, "seconds": seconds}
+
+    bar = tqdm(total=cfg.steps, initial=step, desc="training", unit="step", disable=not progress or None)
+    t_last = time.perf_counter()
+    model.train()
+    while step < cfg.steps:
+        lam = lambda_schedule(step / max(1, cfg.steps - 1), cfg.lam_start, cfg.lam_end)
+        for group in opt.param_groups:
+            group["lr"] = _learning_rate(cfg, step)
+        x = sampler.sample(rng, cfg.batch)
+        blind, visible = blind_and_visible(model, x, cfg.cell)
+        loss = revisible_loss_torch(blind, visible, x, lam, cfg.eta)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        losses.append(float(loss.detach()))
+        step += 1
+        now = time.perf_counter()
+        seconds += now - t_last
+        t_last = now
+        bar.update(1)
+        if step % 20 == 0:
+            bar.set_postfix(loss=f"{np.mean(losses[-20:]):.3e}", lam=f"{lam:.1f}")
+        if step % cfg.checkpoint_every == 0 or step == cfg.steps:
+            _save_checkpoint(checkpoint, snapshot())
+    bar.close()
+
+    tail = max(1, cfg.steps // 20)
+    per_percent = [float(np.mean(c)) for c in np.array_split(np.asarray(losses), min(100, len(losses)))]
+    summary = {"steps": step, "final_loss": float(np.mean(losses[-tail:])), "seconds": round(seconds, 1),
+               "losses": per_percent}
+    meta = {
+        "method": "Blind2Unblind re-visible loss (Eq. 12), blind-spot volume (Eq. 10-11)",
+        "config": asdict(cfg),
+        "final_loss": summary["final_loss"],
+        "loss_per_percent": per_percent,
+        "train_seconds": summary["seconds"],
+        "device": torch.cuda.get_device_name(dev) if dev.type == "cuda" else platform.processor() or "cpu",
+        "torch": torch.__version__,
+        "date": time.strftime("%Y-%m-%d"),
+        **(describe or {}),
+    }
+    to_numpy_unet(model.cpu(), meta).save(output)
+    return summary

@@ -1,0 +1,331 @@
+"""The denoising U-Net ``f_θ`` of §4.1, inference in NumPy (no autograd, no deep-learning framework).
+
+Architecture (supplement §8: 5 encoder and 5 decoder blocks of two 3×3 convolutions with
+LeakyReLU, skip connections, head and tail — 25 convolutions):
+
+=============  =====================================  ===================  ==========
+layer          operation                              channels in → out    resolution
+=============  =====================================  ===================  ==========
+``head0/1``    conv, conv                             1 → C → C            1
+``enc{k}a/b``  max-pool 2×2, conv, conv (k = 1…5)     C → C → C            1/2^k
+``dec{k}a/b``  nearest ×2, concat skip, conv, conv    2C → C → C           1/2^(k−1)
+``tail0/1/2``  conv, conv, conv (the last linear)     C → C → C/2 → 1      1
+=============  =====================================  ===================  ==========
+
+``C`` is :attr:`UNetSpec.width`; every convolution is 3×3 with zero padding 1 and a bias,
+followed by LeakyReLU (slope :attr:`UNetSpec.negative_slope`) except ``tail2``.  The skip of
+decoder block ``k`` is the output of encoder block ``k − 1`` (the head for ``k = 1``).
+Input and output are one-channel firing-rate images (spikes per readout), shared by the
+four Bayer planes.
+
+Any input size is accepted: the image is reflect-padded at the bottom and right to a multiple
+of ``2^depth`` (32) and the output cropped back.
+
+Convolution is im2col + one BLAS matrix product per strip of rows, in channel-last layout
+(:func:`conv3x3`); :func:`conv3x3_plain` is the plain NumPy reference (one ``einsum`` per tap,
+no BLAS) it is tested and benchmarked against.
+
+Weights file (``.npz``): ``format = "spikeref-unet-1"``, ``width``, ``depth``,
+``negative_slope``, for each layer ``<name>.weight`` ``(out, in, 3, 3) float32`` and
+``<name>.bias`` ``(out,) float32`` (PyTorch's layout), and ``meta`` (a JSON string: how the
+weights were made).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["UNetSpec", "UNet", "layer_shapes", "conv3x3", "conv3x3_plain", "WEIGHTS_FORMAT"]
+
+WEIGHTS_FORMAT = "spikeref-unet-1"
+
+#: Bytes of the im2col buffer of one strip of rows (sized for the L2/L3 cache).
+_STRIP_BYTES = 4 << 20
+
+
+@dataclass(frozen=True)
+class UNetSpec:
+    """Shape of the U-Net.
+
+    Parameters
+    ----------
+    width : int
+        Channels ``C`` of the hidden layers (even, ≥ 2).  The paper's Blind2Unblind network
+        uses 48; a smaller width is faster on a CPU (see ``docs/results.md``).
+    depth : int
+        Encoder (and decoder) blocks; the input is padded to a multiple of ``2**depth``.
+        The paper's network has 5.
+    negative_slope : float
+        Slope of LeakyReLU for negative inputs.
+    """
+
+    width: int = 32
+    depth: int = 5
+    negative_slope: float = 0.1
+
+    def __post_init__(self):
+        for name in ("width", "depth"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+                raise ValueError(f"UNetSpec.{name} must be a positive integer; got {v!r}")
+        if self.width < 2 or self.width % 2:
+            raise ValueError(f"UNetSpec.width must be even and ≥ 2; got {self.width}")
+        if not (np.isfinite(self.negative_slope) and 0 <= self.negative_slope < 1):
+            raise ValueError(f"UNetSpec.negative_slope must lie in [0, 1); got {self.negative_slope!r}")
+
+    @property
+    def multiple(self) -> int:
+        """Input sizes are padded to a multiple of this (``2**depth``)."""
+        return 2**self.depth
+
+
+def layer_shapes(spec: UNetSpec) -> dict[str, tuple[int, int]]:
+    """``{name: (in_channels, out_channels)}`` of the convolutions, in the order they run."""
+    c = spec.width
+    shapes = {"head0": (1, c), "head1": (c, c)}
+    for k in range(1, spec.depth + 1):
+        shapes[f"enc{k}a"] = (c, c)
+        shapes[f"enc{k}b"] = (c, c)
+    for k in range(spec.depth, 0, -1):
+        shapes[f"dec{k}a"] = (2 * c, c)
+        shapes[f"dec{k}b"] = (c, c)
+    shapes["tail0"] = (c, c)
+    shapes["tail1"] = (c, c // 2)
+    shapes["tail2"] = (c // 2, 1)
+    return shapes
+
+
+# ----------------------------------------------------------------------------- convolution
+def _leaky(x: np.ndarray, slope: float) -> None:
+    """LeakyReLU in place."""
+    if slope == 0:
+        np.maximum(x, 0, out=x)
+    else:
+        np.maximum(x, x * slope, out=x)
+
+
+def conv3x3(x: np.ndarray, wmat: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
+    """3×3 convolution, zero padding 1, by im2col + BLAS in strips of rows.
+
+    Parameters
+    ----------
+    x : ndarray ``(N, H, W, Cin) float32``
+        Channel-last input.
+    wmat : ndarray ``(9·Cin, Cout) float32``
+        Weights, row ``(3·dy + dx)·Cin + c`` holding tap ``(dy, dx)`` of input channel ``c``
+        (:meth:`UNet.from_params` builds it from PyTorch's ``(Cout, Cin, 3, 3)``).
+    bias : ndarray ``(Cout,) float32``
+    slope : float or None
+        LeakyReLU slope applied to the output, or ``None`` for a linear layer.
+
+    Returns
+    -------
+    ndarray ``(N, H, W, Cout) float32``
+        ``out[n, y, x, o] = b[o] + Σ_{c,dy,dx} w[o, c, dy, dx] · x[n, y+dy−1, x+dx−1, c]``
+        (cross-correlation, as PyTorch's ``Conv2d``).
+    """
+    n, h, w, cin = x.shape
+    cout = wmat.shape[1]
+    xp = np.zeros((n, h + 2, w + 2, cin), dtype=np.float32)
+    xp[:, 1:-1, 1:-1] = x
+    out = np.empty((n, h, w, cout), dtype=np.float32)
+    rows = int(max(1, min(h, _STRIP_BYTES // max(1, w * 9 * cin * 4))))
+    cols = np.empty((rows, w, 9, cin), dtype=np.float32)
+    for i in range(n):
+        for r0 in range(0, h, rows):
+            r1 = min(h, r0 + rows)
+            m = r1 - r0
+            c = cols[:m]
+            for dy in range(3):
+                for dx in range(3):
+                    c[:, :, 3 * dy + dx, :] = xp[i, r0 + dy : r1 + dy, dx : dx + w, :]
+            o = out[i, r0:r1].reshape(m * w, cout)
+            np.matmul(c.reshape(m * w, 9 * cin), wmat, out=o)
+            o += bias
+            if slope is not None:
+                _leaky(o, slope)
+    return out
+
+
+def conv3x3_plain(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
+    """Plain NumPy reference of :func:`conv3x3`: channel-first, one ``einsum`` per tap, no BLAS.
+
+    ``x`` is ``(N, Cin, H, W)``, ``weight`` PyTorch's ``(Cout, Cin, 3, 3)``; returns
+    ``(N, Cout, H, W)``.  Slow and obviously correct; the baseline of the speed ratio.
+    """
+    n, cin, h, w = x.shape
+    xp = np.zeros((n, cin, h + 2, w + 2), dtype=np.float32)
+    xp[:, :, 1:-1, 1:-1] = x
+    out = np.broadcast_to(bias[None, :, None, None], (n, weight.shape[0], h, w)).astype(np.float32)
+    for dy in range(3):
+        for dx in range(3):
+            out += np.einsum("oc,nchw->nohw", weight[:, :, dy, dx], xp[:, :, dy : dy + h, dx : dx + w])
+    if slope is not None:
+        out = np.where(out >= 0, out, out * slope).astype(np.float32)
+    return out
+
+
+# ----------------------------------------------------------------------------- the network
+class UNet:
+    """The U-Net with fixed weights; ``net(batch)`` maps ``(N, H, W)`` rates to ``(N, H, W)``.
+
+    Build it with :meth:`load` (a weights ``.npz``), :meth:`from_params` (a dict of PyTorch-layout
+    arrays) or :meth:`random` (He-initialised, for tests and benchmarks).
+    """
+
+    def __init__(self, spec: UNetSpec, params: dict[str, np.ndarray], meta: dict | None = None):
+        if not isinstance(spec, UNetSpec):
+            raise TypeError(f"spec must be a UNetSpec; got {type(spec).__name__}")
+        self.spec = spec
+        self.meta = dict(meta or {})
+        self.params: dict[str, np.ndarray] = {}
+        self._layers: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        for name, (cin, cout) in layer_shapes(spec).items():
+            for part, shape in (("weight", (cout, cin, 3, 3)), ("bias", (cout,))):
+                key = f"{name}.{part}"
+                if key not in params:
+                    raise ValueError(f"params lack {key!r} (a width-{spec.width}, depth-{spec.depth} U-Net)")
+                arr = np.asarray(params[key])
+                if arr.shape != shape:
+                    raise ValueError(f"params[{key!r}] must have shape {shape}; got {arr.shape}")
+                if not np.issubdtype(arr.dtype, np.floating) or not np.all(np.isfinite(arr)):
+                    raise ValueError(f"params[{key!r}] must be finite floating point")
+                self.params[key] = np.ascontiguousarray(arr, dtype=np.float32)
+            w = self.params[f"{name}.weight"]
+            wmat = np.ascontiguousarray(w.transpose(2, 3, 1, 0).reshape(9 * cin, cout))
+            self._layers[name] = (wmat, self.params[f"{name}.bias"])
+        extra = sorted(set(params) - set(self.params))
+        if extra:
+            raise ValueError(f"params hold unknown arrays {extra[:4]} for a depth-{spec.depth} U-Net")
+
+    # -- construction ---------------------------------------------------------------------------
+    @classmethod
+    def from_params(cls, params: dict[str, np.ndarray], spec: UNetSpec | None = None, meta=None) -> "UNet":
+        """From PyTorch-layout arrays; the spec is read from ``head0.weight`` and the layer names if not given."""
+        if spec is None:
+            width = int(np.asarray(params["head0.weight"]).shape[0])
+            depth = sum(1 for k in params if k.startswith("enc") and k.endswith("a.weight"))
+            spec = UNetSpec(width=width, depth=depth)
+        return cls(spec, params, meta)
+
+    @classmethod
+    def random(cls, spec: UNetSpec | None = None, seed: int = 0) -> "UNet":
+        """He-normal weights and small random biases (a fixed function for tests and benchmarks)."""
+        spec = spec or UNetSpec()
+        rng = np.random.default_rng(seed)
+        params = {}
+        for name, (cin, cout) in layer_shapes(spec).items():
+            std = np.sqrt(2.0 / (9 * cin))
+            params[f"{name}.weight"] = (rng.standard_normal((cout, cin, 3, 3)) * std).astype(np.float32)
+            params[f"{name}.bias"] = (rng.standard_normal(cout) * 0.01).astype(np.float32)
+        return cls(spec, params, {"source": f"UNet.random(seed={seed})"})
+
+    @classmethod
+    def load(cls, path) -> "UNet":
+        """Read a weights ``.npz`` (the format in the module docstring)."""
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"no weights file {path}")
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                data = {k: z[k] for k in z.files}
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"{path}: not a weights .npz ({exc})") from None
+        fmt = str(data.pop("format", ""))
+        if fmt != WEIGHTS_FORMAT:
+            raise ValueError(f"{path}: format {fmt!r} is not {WEIGHTS_FORMAT!r}")
+        try:
+            spec = UNetSpec(
+                width=int(data.pop("width")), depth=int(data.pop("depth")),
+                negative_slope=float(data.pop("negative_slope")),
+            )
+        except KeyError as exc:
+            raise ValueError(f"{path}: lacks {exc.args[0]!r}") from None
+        meta = json.loads(str(data.pop("meta", "{}")))
+        try:
+            return cls(spec, data, meta)
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}") from None
+
+    def save(self, path) -> Path:
+        """Write the weights ``.npz`` (atomically)."""
+        from spikeref.io.atomic import atomic_write
+
+        path = Path(path)
+        arrays = {
+            "format": np.array(WEIGHTS_FORMAT), "width": np.array(self.spec.width),
+            "depth": np.array(self.spec.depth), "negative_slope": np.array(self.spec.negative_slope),
+            "meta": np.array(json.dumps(self.meta, sort_keys=True)), **self.params,
+        }
+        def write(tmp):
+            with open(tmp, "wb") as f:
+                np.savez(f, **arrays)
+
+        return atomic_write(path, write)
+
+    @property
+    def n_parameters(self) -> int:
+        return int(sum(a.size for a in self.params.values()))
+
+    def __repr__(self) -> str:
+        s = self.spec
+        return f"UNet(width={s.width}, depth={s.depth}, parameters={self.n_parameters})"
+
+    # -- inference ------------------------------------------------------------------------------
+    def __call__(self, batch) -> np.ndarray:
+        """``f_θ`` on a batch of one-channel images.
+
+        Parameters
+        ----------
+        batch : ndarray ``(N, H, W)`` or ``(H, W)``, float
+            Firing rates (spikes per readout); any ``H, W ≥ 1``.
+
+        Returns
+        -------
+        ndarray, the shape of ``batch``, ``float32``.
+        """
+        x = np.asarray(batch)
+        if x.ndim not in (2, 3):
+            raise ValueError(f"batch must have shape (N, H, W) or (H, W); got {x.shape}")
+        if not np.issubdtype(x.dtype, np.floating):
+            raise TypeError(f"batch must be floating point (firing rates); got {x.dtype}")
+        if x.size == 0:
+            raise ValueError(f"batch is empty: shape {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise ValueError("batch must be finite")
+        single = x.ndim == 2
+        x = x[None] if single else x
+        n, h, w = x.shape
+        m = self.spec.multiple
+        ph, pw = (-h) % m, (-w) % m
+        xp = np.pad(x.astype(np.float32), ((0, 0), (0, ph), (0, pw)), mode="reflect" if min(h, w) > 1 else "edge")
+        out = self._forward(xp[..., None])[..., 0][:, :h, :w]
+        return np.ascontiguousarray(out[0] if single else out)
+
+    def _forward(self, x: np.ndarray) -> np.ndarray:
+        """The layers on a padded channel-last batch ``(N, H, W, 1)``."""
+        slope = self.spec.negative_slope
+        layers = self._layers
+
+        def conv(name, t, act=True):
+            wmat, b = layers[name]
+            return conv3x3(t, wmat, b, slope if act else None)
+
+        x = conv("head1", conv("head0", x))
+        skips = [x]
+        for k in range(1, self.spec.depth + 1):
+            n, h, w, c = x.shape
+            x = x.reshape(n, h // 2, 2, w // 2, 2, c).max(axis=(2, 4))
+            x = conv(f"enc{k}b", conv(f"enc{k}a", x))
+            skips.append(x)
+        skips.pop()  # the bottleneck is x itself
+        for k in range(self.spec.depth, 0, -1):
+            skip = skips.pop()
+            up = np.repeat(np.repeat(x, 2, axis=1), 2, axis=2)
+            x = conv(f"dec{k}b", conv(f"dec{k}a", np.concatenate([up, skip], axis=-1)))
+        x = conv("tail1", conv("tail0", x))
+        return conv("tail2", x, act=False)
