@@ -8,7 +8,6 @@ Every subcommand prints ``--help`` with units and defaults.  Spike files are
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 

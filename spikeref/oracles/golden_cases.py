@@ -103,6 +103,30 @@ def _inputs_blindspot():
     return {"plane": rng.random((7, 10)), "outputs": rng.random((16, 7, 10))}
 
 
+def _inputs_unet():
+    from spikeref.denoise.unet import UNet, UNetSpec
+
+    net = UNet.random(UNetSpec(width=8, depth=5), seed=10)
+    images = np.random.default_rng(11).random((2, 37, 50)).astype(np.float32) * 0.5
+    return {"images": images, **{f"param_{k}": v for k, v in net.params.items()}}
+
+
+def _unet_params(i):
+    return {k[len("param_"):]: v for k, v in i.items() if k.startswith("param_")}
+
+
+def _unet_fast(i):
+    from spikeref.denoise.unet import UNet
+
+    return {"output": UNet.from_params(_unet_params(i))(i["images"])}
+
+
+def _unet_oracle(i):
+    from spikeref.oracles.unet import unet_forward_oracle
+
+    return {"output": unet_forward_oracle(_unet_params(i), i["images"])}
+
+
 def _inputs_spike_train():
     rng = np.random.default_rng(6)
     rates = np.array([[0.0, 0.004, 0.05], [0.2, 0.5, 1.0]])
@@ -172,6 +196,14 @@ CASES: list[GoldenCase] = [
         lambda i: {"volume": _bs.masked_volume(i["plane"]),
                    "phi": _bs.mask_aware_average(i["outputs"], _bs.cell_masks(7, 10))},
         rtol=1e-12, atol=1e-14, params={"h_s": 4, "w_s": 4},
+    ),
+    GoldenCase(
+        "unet_forward", "§4.1 f_θ (supplement §8)", "spikeref.denoise.unet.UNet",
+        "spikeref.oracles.unet.unet_forward_oracle",
+        "The 25-convolution U-Net (width 8, depth 5, LeakyReLU 0.1) with fixed random weights on two 37×50 "
+        "images (reflect-padded to 64×64 and cropped back). tests/test_unet.py also holds the PyTorch twin to it.",
+        _inputs_unet, _unet_oracle, _unet_fast,
+        rtol=1e-4, atol=1e-5, params={"width": 8, "depth": 5, "negative_slope": 0.1},
     ),
     GoldenCase(
         "eq4_accumulate", "Eq. 4", "spikeref.accumulate.accumulate", "spikeref.oracles.accumulate.accumulate_oracle",

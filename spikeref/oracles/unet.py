@@ -1,0 +1,60 @@
+"""Literal NumPy transcription of the U-Net forward pass (:mod:`spikeref.denoise.unet`).
+
+Channel-first, one layer per line, every convolution a plain sum over its 9 taps
+(:func:`spikeref.denoise.unet.conv3x3_plain`), max-pooling and nearest upsampling written out.
+Slow; it freezes ``golden/unet_forward.npz``, which the fast network and the PyTorch twin
+(:mod:`spikeref.denoise.torch_unet`) must both reproduce.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spikeref.denoise.unet import conv3x3_plain
+
+__all__ = ["unet_forward_oracle"]
+
+
+def _conv(params, name, x, slope):
+    return conv3x3_plain(x, params[f"{name}.weight"], params[f"{name}.bias"], slope)
+
+
+def _max_pool(x):
+    n, c, h, w = x.shape
+    out = np.empty((n, c, h // 2, w // 2), dtype=x.dtype)
+    for y in range(h // 2):
+        for x_ in range(w // 2):
+            out[:, :, y, x_] = x[:, :, 2 * y : 2 * y + 2, 2 * x_ : 2 * x_ + 2].max(axis=(2, 3))
+    return out
+
+
+def _upsample_nearest(x):
+    n, c, h, w = x.shape
+    out = np.empty((n, c, 2 * h, 2 * w), dtype=x.dtype)
+    for dy in range(2):
+        for dx in range(2):
+            out[:, :, dy::2, dx::2] = x
+    return out
+
+
+def unet_forward_oracle(params: dict, images: np.ndarray, depth: int = 5, slope: float = 0.1) -> np.ndarray:
+    """``f_θ(images)`` for ``(N, H, W)`` images: reflect-pad bottom/right to ``2**depth``, run, crop."""
+    n, h, w = images.shape
+    m = 2**depth
+    x = np.pad(images.astype(np.float32), ((0, 0), (0, (-h) % m), (0, (-w) % m)), mode="reflect")[:, None]
+    x = _conv(params, "head0", x, slope)
+    x = _conv(params, "head1", x, slope)
+    skips = [x]
+    for k in range(1, depth + 1):
+        x = _max_pool(x)
+        x = _conv(params, f"enc{k}a", x, slope)
+        x = _conv(params, f"enc{k}b", x, slope)
+        skips.append(x)
+    for k in range(depth, 0, -1):
+        x = np.concatenate([_upsample_nearest(x), skips[k - 1]], axis=1)
+        x = _conv(params, f"dec{k}a", x, slope)
+        x = _conv(params, f"dec{k}b", x, slope)
+    x = _conv(params, "tail0", x, slope)
+    x = _conv(params, "tail1", x, slope)
+    x = _conv(params, "tail2", x, None)
+    return x[:, 0, :h, :w]

@@ -1,0 +1,118 @@
+"""Training (spikeref.denoise.train, extra 'train'): data from unlabeled streams, Eq. 10-12 in torch, resume."""
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from spikeref.denoise import train as tr  # noqa: E402
+from spikeref.denoise.blindspot import mask_aware_average, masked_volume  # noqa: E402
+from spikeref.denoise.unet import UNet  # noqa: E402
+from spikeref.io.dat import read_dat, write_dat  # noqa: E402
+from spikeref.stream import SpikeStream  # noqa: E402
+
+
+def _spikes(shape=(40, 70, 84), p=0.3, seed=0):
+    return (np.random.default_rng(seed).random(shape) < p).astype(np.uint8)
+
+
+def test_masked_volume_in_torch_equals_the_numpy_one():
+    x = torch.rand(3, 1, 13, 22, dtype=torch.float64)
+    volume, masks = tr.masked_volume_torch(x)
+    np.testing.assert_allclose(volume[:, :, 0].numpy(), masked_volume(x.numpy()[:, 0]), rtol=1e-12)
+    assert volume.shape == (16, 3, 1, 13, 22) and masks.shape == (16, 13, 22)
+
+
+def test_blind_output_is_the_mask_aware_average_and_visible_has_no_gradient():
+    def model(t):  # any per-pixel function of the masked images
+        return t * 2.0 + t.mean(dim=(-1, -2), keepdim=True)
+
+    x = torch.rand(2, 1, 8, 12, dtype=torch.float64, requires_grad=True)
+    blind, visible = tr.blind_and_visible(model, x)
+    outs = model(tr.masked_volume_torch(x.detach())[0].reshape(32, 1, 8, 12)).reshape(16, 2, 1, 8, 12)
+    from spikeref.denoise.blindspot import cell_masks
+
+    expected = mask_aware_average(outs.detach().numpy()[:, :, 0], cell_masks(8, 12))
+    np.testing.assert_allclose(blind.detach().numpy()[:, 0], expected, rtol=1e-12)
+    assert blind.requires_grad and not visible.requires_grad
+
+
+@pytest.mark.parametrize("file_width, col_offset", [(84, 0), (96, 8), (92, 3)])
+def test_packed_crops_count_like_the_array(tmp_path, file_width, col_offset):
+    arr = _spikes()
+    wide = np.zeros((arr.shape[0], arr.shape[1], file_width), np.uint8)
+    wide[:, :, col_offset : col_offset + 84] = arr
+    write_dat(tmp_path / "s.dat", wide)
+    packed = read_dat(tmp_path / "s.dat", 70, 84, file_width=file_width, col_offset=col_offset)
+    sampler = tr.CropSampler([packed], 16, 5, 10)
+    for t, w, y0, x0 in [(0, 5, 0, 0), (3, 7, 2, 4), (30, 10, 38, 52), (1, 1, 38, 50)]:
+        got = sampler._counts(packed, t, w, y0, x0).numpy()
+        np.testing.assert_array_equal(got, arr[t : t + w, y0 : y0 + 32, x0 : x0 + 32].sum(0))
+
+
+def test_samples_are_rates_of_whole_windows_within_the_range():
+    sampler = tr.CropSampler([SpikeStream.from_array(_spikes())], 16, 5, 9)
+    rng = np.random.default_rng(1)
+    x = sampler.sample(rng, 6)
+    assert x.shape == (24, 1, 16, 16) and x.dtype == torch.float32
+    assert float(x.min()) >= 0 and float(x.max()) <= 1
+    windows = [sampler._window(rng, sampler.streams[0]) for _ in range(300)]
+    assert min(windows) == 5 and max(windows) == 9  # log-uniform over [5, 9] reaches both ends
+    for img in x[:, 0].numpy():  # every value is count / W for one W in 5..9
+        assert any(np.allclose(img * w, np.round(img * w), atol=1e-5) for w in range(5, 10))
+
+
+def test_streams_too_small_are_refused():
+    small = SpikeStream.from_array(_spikes((10, 20, 20)))
+    with pytest.raises(ValueError, match="smaller than the training crop"):
+        tr.CropSampler([small], 16, 5, 10)
+    with pytest.raises(ValueError, match="no training streams"):
+        tr.CropSampler([], 16, 5, 10)
+    with pytest.raises(ValueError, match="multiple of 2\\*\\*depth"):
+        tr.TrainConfig(patch=20)
+
+
+def _tiny_config(**kw):
+    return tr.TrainConfig(width=4, depth=2, steps=6, batch=1, patch=16, checkpoint_every=3, **kw)
+
+
+def test_interrupted_training_resumes_to_the_same_weights(tmp_path, monkeypatch):
+    streams = [SpikeStream.from_array(_spikes())]
+    cfg = _tiny_config()
+    tr.train(streams, tmp_path / "whole.npz", cfg, device="cpu", progress=False)
+
+    calls = {"n": 0}
+    original = tr.CropSampler.sample
+
+    def failing(self, rng, batch):
+        calls["n"] += 1
+        if calls["n"] == 5:  # after the checkpoint at step 3, during step 5
+            raise KeyboardInterrupt
+        return original(self, rng, batch)
+
+    monkeypatch.setattr(tr.CropSampler, "sample", failing)
+    with pytest.raises(KeyboardInterrupt):
+        tr.train(streams, tmp_path / "resumed.npz", cfg, device="cpu", progress=False)
+    assert (tmp_path / "resumed.npz.ckpt").is_file() and not (tmp_path / "resumed.npz").exists()
+    monkeypatch.setattr(tr.CropSampler, "sample", original)
+    summary = tr.train(streams, tmp_path / "resumed.npz", cfg, resume=True, device="cpu", progress=False)
+    assert summary["steps"] == 6
+    a, b = UNet.load(tmp_path / "whole.npz"), UNet.load(tmp_path / "resumed.npz")
+    for key in a.params:
+        np.testing.assert_array_equal(a.params[key], b.params[key], err_msg=key)
+    with pytest.raises(ValueError, match="another configuration"):
+        tr.train(streams, tmp_path / "resumed.npz", _tiny_config(lr=1e-3), resume=True, device="cpu",
+                 progress=False)
+
+
+def test_training_lowers_the_loss_and_writes_numpy_weights(tmp_path):
+    # A noisy flat field: the loss at the end of a short run must be below its start.
+    streams = [SpikeStream.from_array(_spikes((200, 64, 64), p=0.2, seed=3))]
+    cfg = tr.TrainConfig(width=8, depth=2, steps=60, batch=2, patch=32, lr=3e-3, lam_start=2.0, lam_end=2.0,
+                         checkpoint_every=100)
+    summary = tr.train(streams, tmp_path / "w.npz", cfg, device="cpu", progress=False)
+    losses = summary["losses"]
+    assert np.mean(losses[-10:]) < 0.5 * np.mean(losses[:5])
+    net = UNet.load(tmp_path / "w.npz")
+    assert net.spec.width == 8 and net.meta["config"]["steps"] == 60
+    assert net.meta["final_loss"] == pytest.approx(summary["final_loss"])
