@@ -78,8 +78,8 @@ def main() -> None:
                 rates = accumulate(stream, w, start=int(start), count=1)[0]
                 planes = bayer_planes(rates)
 
-                def score(method, rgb):
-                    rows.append((toml.stem, w, method, psnr(gt, rgb, dr),
+                def score(method, rgb, name=toml.stem, w=w, gt=gt, dr=dr):
+                    rows.append((name, w, method, psnr(gt, rgb, dr),
                                  float(structural_similarity(gt, rgb.astype(np.float64), data_range=dr,
                                                              channel_axis=-1, gaussian_weights=True, sigma=1.5,
                                                              use_sample_covariance=False))))

@@ -120,6 +120,78 @@ def cmd_denoise(args) -> int:
     return 0
 
 
+# -------------------------------------------------------------------------- reconstruct
+def parse_frames_option(text: str | None):
+    """``--frames a:b`` (either end may be left out) → ``(a, b)`` with ``None`` for a missing end."""
+    if text is None:
+        return None, None
+    parts = text.split(":")
+    if len(parts) != 2:
+        raise CliError(f"--frames must look like a:b (frame numbers, b excluded); got {text!r}")
+    try:
+        return tuple(int(v) if v.strip() else None for v in parts)
+    except ValueError:
+        raise CliError(f"--frames must look like a:b with integer frame numbers; got {text!r}") from None
+
+
+def cmd_reconstruct(args) -> int:
+    from tqdm import tqdm
+
+    from spikeref.align import AlignParams
+    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.io.exr import read_exr
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+    from spikeref.render import FrameSink, exr_name
+
+    video, exr_dir = args.output, args.exr_dir
+    if video is None and exr_dir is None:
+        video, exr_dir = Path("reconstruction.mp4"), Path("reconstruction_exr")
+    if args.resume and exr_dir is None:
+        raise CliError("--resume needs --exr-dir (the frames already written are found there)")
+    params = ReconstructParams(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align,
+                               align_params=AlignParams())
+    stream = open_input(args)
+    a, b = parse_frames_option(args.frames)
+    den = Denoiser.load(args.weights, mode=args.mode)
+    rec = Reconstructor(stream, params, den)
+    avail = rec.frames_available
+    a = avail.start if a is None else a
+    b = avail.stop if b is None else b
+    if a < avail.start or b > avail.stop or a >= b:
+        raise CliError(f"--frames {a}:{b}: this stream has frames {avail.start}:{avail.stop} "
+                       f"(W={args.window}, K={args.K}, L={args.L}: frame k needs windows k−{params.reach} … "
+                       f"k+{params.reach})")
+    done = set()
+    if args.resume:
+        done = {k for k in range(a, b) if (exr_dir / exr_name(k)).is_file()}
+    fps_out = stream.rate_hz / args.window
+    print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
+          f" → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
+          f"{args.mode}{', no alignment' if args.no_align else ''})"
+          + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
+    with FrameSink(video, exr_dir, fps=args.fps, half=args.half) as sink:
+        bar = tqdm(total=b - a, desc="reconstruct", unit="frame")
+        k = a
+        while k < b:
+            if k in done:  # --resume: read back what an earlier run wrote (the video needs every frame)
+                sink.add(k, read_exr(exr_dir / exr_name(k)), on_disk=True)
+                bar.update(1)
+                k += 1
+                continue
+            stop = k
+            while stop < b and stop not in done:
+                stop += 1
+            for frame in rec.frames(k, stop):
+                sink.add(frame.index, frame.rgb)
+                bar.update(1)
+            k = stop
+        bar.close()
+    for path in (video, exr_dir):
+        if path is not None:
+            print(f"wrote {path}", file=sys.stderr)
+    return 0
+
+
 # -------------------------------------------------------------------------- train
 def cmd_train(args) -> int:
     try:
@@ -270,6 +342,35 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
     p.add_argument("--half", action="store_true", help="write float16 EXR (default float32)")
     p.set_defaults(func=cmd_denoise)
+
+    p = sub.add_parser("reconstruct", help="colour HDR video by progressive warping (Eq. 13-15) to MP4 + EXR",
+                       description="Reconstruct linear colour HDR frames R_L = Ψ[D(I_L)] (§4.2, Fig. 3b): windows "
+                                   "of W planes are accumulated (Eq. 4), denoised (§4.1) and aligned (HDR+ tiles); "
+                                   "step 1 warps the spike planes of K windows (Eq. 14), steps 2…L warp K frames of "
+                                   "the previous step (Eq. 15). One frame per window: 20000/W FPS; frame k is "
+                                   "centred on window k (planes kW…(k+1)W) and needs ((K−1)L+1)·W planes around "
+                                   "it. Without FILE the embedded sample is used. Without -o/--exr-dir it writes "
+                                   "reconstruction.mp4 and reconstruction_exr/. EXR frames are linear float RGB in "
+                                   "spikes per readout, named frame_NNNNNN.exr by frame number.",
+                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    _add_input_options(p, optional_file=True)
+    p.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif), one exposure")
+    p.add_argument("--exr-dir", type=Path, default=None, help="folder for linear EXR frames")
+    p.add_argument("-W", "--window", type=int, default=10,
+                   help="window in planes (10 planes = 0.5 ms at 20 kHz → 2000 FPS)")
+    p.add_argument("-K", type=int, default=3, help="frames warped together at each step (odd)")
+    p.add_argument("-L", type=int, default=3, help="warping steps (0: denoised TFP only)")
+    p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
+                   help="denoiser inference: visible (1 pass), blind (Eq. 10-11, 16 passes), mixed (17)")
+    p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
+    p.add_argument("--weights", type=Path, default=None, help="denoiser weights .npz (default: the bundled weights)")
+    p.add_argument("--frames", default=None, help="frame numbers a:b to reconstruct (b excluded; default all); "
+                   "chunks give exactly the frames of a full run")
+    p.add_argument("--resume", action="store_true",
+                   help="skip frames whose EXR file exists in --exr-dir (an interrupted run loses nothing)")
+    p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
+    p.add_argument("--half", action="store_true", help="write float16 EXR (default float32)")
+    p.set_defaults(func=cmd_reconstruct)
 
     p = sub.add_parser("train", help="train the denoiser on unlabeled spike files (needs spikeref[train])",
                        description="Self-supervised training of the denoising U-Net (Blind2Unblind: blind-spot "

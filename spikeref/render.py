@@ -65,9 +65,9 @@ class FrameSink:
         self.half = half
         self.count = 0
 
-    def add(self, index: int, frame: np.ndarray) -> None:
-        """Add output frame number ``index`` (linear float)."""
-        if self.exr_dir is not None:
+    def add(self, index: int, frame: np.ndarray, on_disk: bool = False) -> None:
+        """Add output frame number ``index`` (linear float); ``on_disk=True``: its EXR exists, video only."""
+        if self.exr_dir is not None and not on_disk:
             write_exr(self.exr_dir / exr_name(index), frame, half=self.half)
         if self._video is None:
             self.count += 1

@@ -1,0 +1,607 @@
+"""Motion between frames for progressive warping (§4.2): HDR+ hierarchical tile alignment.
+
+The paper estimates the flow ``F_l`` of Eq. 14–15 with "off-the-shelf" multi-frame alignment
+(supplement §8, "Progressive warping", citing HDR+): a 4-level Gaussian pyramid (scales 1, ½,
+¼, ⅛), matching searched from the coarsest level to the finest, and *larger patches for the
+noisy early steps, progressively smaller later*.  This module is that alignment, after
+Hasinoff et al. 2016, "Burst photography for high dynamic range and low-light imaging on
+mobile cameras", §4 and its supplement, run on one single-channel image per frame on the
+Bayer-plane grid (``h × w = H/2 × W/2``; the pipeline feeds the 2×2 :func:`luma` of the
+denoised planes ``D(I_l)``).
+
+Flow convention
+---------------
+The flow is ``(2, h, w)`` float32, ``(dy, dx)`` in pixels of the plane grid, with
+
+    ``alternate[y + dy, x + dx] ≈ reference[y, x]``
+
+so backward warping of ``alternate`` by the flow (:func:`spikeref.warp.warp_bilinear`)
+reproduces ``reference``.  It is the ``F(x, t, t')`` of Eq. 14–15 with ``t`` the reference
+window and ``t'`` the alternate's.
+
+Interpretations (DESIGN §4; the paper names HDR+ and the pyramid, nothing finer)
+-------------------------------------------------------------------------------
+* **Pyramid.**  Level 0 is the image (float32).  Level ``k+1`` is level ``k`` blurred by the
+  separable 5-tap binomial ``[1, 4, 6, 4, 1] / 16`` (a Gaussian of σ = 1 pixel; borders
+  replicate the edge pixel), vertical pass then horizontal pass in float64, then every
+  second pixel kept (rows and columns 0, 2, 4, …), so a level of size ``n`` gives
+  ``ceil(n / 2)`` and level-``(k+1)`` pixel ``p`` sits at level-``k`` pixel ``2p``.
+* **Tiles.**  At every level tiles overlap by half: the tile size ``T`` is
+  ``params.tile_for_step(step)`` at level 0 and ``params.coarse_tile`` at coarser levels,
+  the stride is ``T / 2``, and there are ``(n − T) // (T/2) + 1`` tiles per axis of a level
+  of size ``n`` (only tiles entirely inside the image; a right or bottom strip narrower than
+  the stride belongs to no tile and takes the flow of the outermost tiles).  **Tile centres
+  are in pixel-index coordinates**: tile ``i`` covers pixels ``i·T/2 … i·T/2 + T − 1`` and
+  its centre is ``i·T/2 + (T − 1)/2``.
+* **Minimum frame size.**  Every level ``k`` must hold one tile at scale ``2^−k`` exactly:
+  ``min(h, w) ≥ coarse_tile · 2^(levels−1)`` (when ``levels > 1``) and ``≥`` the finest tile
+  (:meth:`AlignParams.min_size`; 64 plane pixels with the defaults).  This is slightly
+  conservative (odd sizes round up under decimation) and is the rule the pipeline checks.
+* **Search.**  Coarse to fine; at the coarsest level the search centre is 0.  At level ``k``
+  every integer offset ``u = g + d``, ``d ∈ [−r_k, r_k]²`` around the centre ``g`` is tried,
+  ``r_k = params.search_radius[k]``.  The distance is the sum over the tile of
+  ``(ref(p) − alt(p + u))²`` (L2) at every level but the finest, and of ``|ref(p) − alt(p + u)|``
+  (L1) at the finest (as HDR+), accumulated in float64 in raster order.  Samples of
+  ``alternate`` outside the image take the nearest edge pixel (clamped coordinates).
+* **Ties** (so that results are deterministic and flat input gives zero flow): the smallest
+  distance wins; among equal distances the offset closest to the search centre
+  (smallest ``dy² + dx²``); among those the first in raster order of ``(dy, dx)`` starting
+  at ``(−r, −r)``.
+* **Upsampling between levels (HDR+'s 3-candidate rule).**  Vectors of level ``k+1`` are
+  integers and are multiplied by 2.  A level-``k`` tile centre ``c`` sits at ``c / 2`` on the
+  level-``(k+1)`` grid; per axis, the nearest coarse tile centre is found, and its neighbour
+  on the side of ``c / 2`` (clamped at the borders).  The candidates are, in this order, the
+  nearest coarse tile ``(m_y, m_x)``, its horizontal neighbour ``(m_y, n_x)`` and its vertical
+  neighbour ``(n_y, m_x)``.  The candidate whose doubled vector has the smallest L1 distance
+  for the fine tile at level ``k`` becomes the search centre (the first in that order on a
+  tie).  With even tile sizes ``c / 2`` never coincides with a coarse centre nor lies halfway
+  between two, so "nearest" and "side" are always defined.
+* **Sub-pixel (finest level, ``params.subpixel``).**  Around the best integer offset the 3×3
+  L2 distances ``D(dy, dx)``, ``dy, dx ∈ {−1, 0, 1}``, are fitted by least squares with
+  ``D ≈ ½ uᵀAu + bᵀu + c`` (HDR+ supplement; here in closed form); the vector moves by
+  ``u* = −A⁻¹b`` when ``A`` is positive definite and ``|u*_y|, |u*_x| ≤ 1``, else it stays on the
+  integer.  "Positive definite" has a relative tolerance (:data:`PD_TOLERANCE`) so that
+  round-off on a singular ``A`` never passes, and ``≤ 1`` a slack (:data:`SLACK`) so that
+  ``|u*| = 1`` exactly is accepted whatever the round-off.  An exact match (``D(0, 0) = 0``)
+  is kept as it is: the fit cannot improve on it, and ``reference == alternate`` then gives
+  exactly zero flow.
+* **Per-pixel flow** (:func:`flow_from_tiles`): the tile vectors, placed at the tile centres,
+  are interpolated bilinearly; beyond the outermost centres the nearest centre's value is
+  used (clamped).
+* **Reach.**  The pyramid finds displacements up to ``Σ_k r_k 2^k`` plane pixels
+  (1 + 8 + 16 + 32 = 57 with the defaults); beyond that the flow is finite but wrong.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from spikeref._jit import njit, prange
+
+__all__ = [
+    "PYRAMID_KERNEL",
+    "PD_TOLERANCE",
+    "SLACK",
+    "AlignParams",
+    "DEFAULT_PARAMS",
+    "luma",
+    "gaussian_pyramid",
+    "align",
+    "align_tiles",
+    "flow_from_tiles",
+]
+
+#: The 5-tap binomial blur of the pyramid (σ = 1), applied separably.
+PYRAMID_KERNEL = (1.0, 4.0, 6.0, 4.0, 1.0)
+
+#: The sub-pixel fit's ``A`` counts as positive definite when its smaller eigenvalue exceeds this
+#: fraction of the largest of the nine distances: a guard against round-off on degenerate surfaces
+#: (e.g. a tile whose samples are all clamped to one edge row, where ``A`` is singular).
+PD_TOLERANCE = 1e-9
+
+#: The sub-pixel offset is accepted when ``|u*| ≤ 1 + SLACK`` in both components; the slack keeps the
+#: decision the same in the kernel and the oracle when ``|u*| = 1`` exactly (quantised input).
+SLACK = 1e-9
+
+
+# ----------------------------------------------------------------------------- parameters
+def _is_int(v) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def _int_tuple(name: str, value, *, minimum: int, even: bool) -> tuple[int, ...]:
+    if _is_int(value) or isinstance(value, (str, bytes)):
+        raise ValueError(f"{name} must be a non-empty tuple of integers; got {value!r}")
+    try:
+        items = tuple(value)
+    except TypeError:
+        raise ValueError(f"{name} must be a non-empty tuple of integers; got {value!r}") from None
+    if not items:
+        raise ValueError(f"{name} must be a non-empty tuple of integers; got {value!r}")
+    for v in items:
+        if not _is_int(v) or v < minimum or (even and v % 2):
+            kind = f"even integers ≥ {minimum}" if even else f"integers ≥ {minimum}"
+            raise ValueError(f"{name} must hold {kind}; got {value!r}")
+    return tuple(int(v) for v in items)
+
+
+@dataclass(frozen=True)
+class AlignParams:
+    """Alignment parameters (defaults documented with their source).
+
+    Parameters
+    ----------
+    levels : int
+        Pyramid levels, ≥ 1: 4 gives scales 1, ½, ¼, ⅛ (paper supplement §8, "Progressive
+        warping": "downsampling … with the scales of ½, ¼, and ⅛ … each group of multi-scale
+        maps contains 4 frames").
+    tile_by_step : tuple of int
+        Finest-level tile size (plane pixels, even, ≥ 2) for pipeline step ``l = 0, 1, 2, …``;
+        the last value serves every later step.  ``(16, 16, 8)``: large tiles while frames are
+        noisy, smaller later (supplement: "larger patch sizes for these initial frames,
+        progressively decreasing the patch size"); 16 and 8 are HDR+'s two tile sizes.
+    coarse_tile : int
+        Tile size (pixels of that level, even, ≥ 2) at every coarser level; 8 as HDR+.
+    search_radius : tuple of int
+        Search radius ``r_k`` (pixels of level ``k``, ≥ 0) per level, finest → coarsest;
+        ``len(search_radius) == levels``.  ``(1, 4, 4, 4)`` as HDR+.
+    subpixel : bool
+        Quadratic sub-pixel refinement at the finest level (HDR+ supplement).
+    """
+
+    levels: int = 4
+    tile_by_step: tuple[int, ...] = (16, 16, 8)
+    coarse_tile: int = 8
+    search_radius: tuple[int, ...] = (1, 4, 4, 4)
+    subpixel: bool = True
+
+    def __post_init__(self):
+        if not _is_int(self.levels) or self.levels < 1:
+            raise ValueError(f"levels must be an integer ≥ 1; got {self.levels!r}")
+        object.__setattr__(self, "levels", int(self.levels))
+        object.__setattr__(self, "tile_by_step", _int_tuple("tile_by_step", self.tile_by_step, minimum=2, even=True))
+        if not _is_int(self.coarse_tile) or self.coarse_tile < 2 or self.coarse_tile % 2:
+            raise ValueError(f"coarse_tile must be an even integer ≥ 2; got {self.coarse_tile!r}")
+        object.__setattr__(self, "coarse_tile", int(self.coarse_tile))
+        radius = _int_tuple("search_radius", self.search_radius, minimum=0, even=False)
+        if len(radius) != self.levels:
+            raise ValueError(f"search_radius must have one radius per level (levels={self.levels}); "
+                             f"got {len(radius)}: {radius!r}")
+        object.__setattr__(self, "search_radius", radius)
+        if not isinstance(self.subpixel, (bool, np.bool_)):
+            raise ValueError(f"subpixel must be True or False; got {self.subpixel!r}")
+        object.__setattr__(self, "subpixel", bool(self.subpixel))
+
+    def tile_for_step(self, step: int) -> int:
+        """Finest-level tile size for pipeline step ``step`` (≥ 0); the last entry for late steps."""
+        _check_step(step)
+        return self.tile_by_step[min(int(step), len(self.tile_by_step) - 1)]
+
+    def min_size(self, step: int = 0) -> int:
+        """Smallest ``min(h, w)`` (plane pixels) that alignment at ``step`` accepts.
+
+        ``max(tile_for_step(step), coarse_tile · 2^(levels−1))`` (the second term only when
+        ``levels > 1``): every level ``k`` holds one tile at scale ``2^−k``.
+        """
+        need = self.tile_for_step(step)
+        if self.levels > 1:
+            need = max(need, self.coarse_tile * 2 ** (self.levels - 1))
+        return need
+
+
+#: The default parameters (the default of every ``params`` argument).
+DEFAULT_PARAMS = AlignParams()
+
+
+def _check_step(step) -> int:
+    if not _is_int(step) or step < 0:
+        raise ValueError(f"step must be an integer ≥ 0 (the pipeline step l); got {step!r}")
+    return int(step)
+
+
+# ----------------------------------------------------------------------------- kernels
+@njit(inline="always")
+def _distance(ref, alt, oy, ox, tile, dy, dx, l2):
+    """Σ over the tile at ``(oy, ox)`` of ``|ref(p) − alt(p + (dy, dx))|`` (or its square), clamped samples."""
+    h, w = alt.shape
+    total = 0.0
+    for y in range(oy, oy + tile):
+        yy = min(max(y + dy, 0), h - 1)
+        for x in range(ox, ox + tile):
+            xx = min(max(x + dx, 0), w - 1)
+            d = np.float64(ref[y, x]) - np.float64(alt[yy, xx])
+            if l2:
+                total += d * d
+            else:
+                total += abs(d)
+    return total
+
+
+@njit(parallel=True)
+def _search(ref, alt, tile, centre, radius, l2, out):
+    """Integer search: ``out[i, j] = centre[i, j] + argmin_d distance``; ``centre, out (ny, nx, 2) int64``."""
+    ny, nx = centre.shape[0], centre.shape[1]
+    stride = tile // 2
+    for t in prange(ny * nx):
+        i = t // nx
+        j = t % nx
+        oy = i * stride
+        ox = j * stride
+        cy = centre[i, j, 0]
+        cx = centre[i, j, 1]
+        best = np.inf
+        by = 0
+        bx = 0
+        bn = 0
+        for dy in range(-radius, radius + 1):
+            for dx in range(-radius, radius + 1):
+                dist = _distance(ref, alt, oy, ox, tile, cy + dy, cx + dx, l2)
+                n2 = dy * dy + dx * dx
+                if dist < best or (dist == best and n2 < bn):
+                    best = dist
+                    by = dy
+                    bx = dx
+                    bn = n2
+        out[i, j, 0] = cy + by
+        out[i, j, 1] = cx + bx
+
+
+@njit(inline="always")
+def _nearest_tiles(c, coarse_tile, count):
+    """Nearest coarse tile to the fine centre ``c`` (fine pixel-index coordinates) and its neighbour on ``c``'s side."""
+    stride = coarse_tile // 2
+    pos = (0.5 * c - 0.5 * (coarse_tile - 1)) / stride  # in units of coarse tiles, 0 = first centre
+    m = int(np.floor(pos + 0.5))
+    m = min(max(m, 0), count - 1)
+    n = m + 1 if pos > m else m - 1
+    n = min(max(n, 0), count - 1)
+    return m, n
+
+
+@njit(parallel=True)
+def _upsample(ref, alt, tile, coarse, coarse_tile, out):
+    """3-candidate upsampling: ``out (ny, nx, 2)`` = the best of 3 doubled coarse vectors (L1 at this level)."""
+    ny, nx = out.shape[0], out.shape[1]
+    my, mx = coarse.shape[0], coarse.shape[1]
+    stride = tile // 2
+    for t in prange(ny * nx):
+        i = t // nx
+        j = t % nx
+        oy = i * stride
+        ox = j * stride
+        ay, by_ = _nearest_tiles(oy + 0.5 * (tile - 1), coarse_tile, my)
+        ax, bx_ = _nearest_tiles(ox + 0.5 * (tile - 1), coarse_tile, mx)
+        best = np.inf
+        vy = 0
+        vx = 0
+        for k in range(3):
+            if k == 0:
+                cy, cx = ay, ax
+            elif k == 1:
+                cy, cx = ay, bx_
+            else:
+                cy, cx = by_, ax
+            uy = 2 * coarse[cy, cx, 0]
+            ux = 2 * coarse[cy, cx, 1]
+            dist = _distance(ref, alt, oy, ox, tile, uy, ux, False)
+            if dist < best:
+                best = dist
+                vy = uy
+                vx = ux
+        out[i, j, 0] = vy
+        out[i, j, 1] = vx
+
+
+@njit(inline="always")
+def _fit_offset(d):
+    """Least-squares fit of ``½uᵀAu + bᵀu + c`` to the 3×3 distances ``d[dy+1, dx+1]``; ``(u*_y, u*_x, ok)``.
+
+    Closed form of the normal equations on the 3×3 grid: ``b`` and ``A_xy`` from the odd moments,
+    ``A_yy = (Σ rows ±1)/3 − 2 (Σ row 0)/3`` (and the same for columns).  ``ok`` is False unless
+    ``A`` is positive definite — its smaller eigenvalue above :data:`PD_TOLERANCE` times the largest
+    of the nine distances — and ``|u*| ≤ 1`` (+ :data:`SLACK`) in both components.
+    """
+    r_m = d[0, 0] + d[0, 1] + d[0, 2]
+    r_0 = d[1, 0] + d[1, 1] + d[1, 2]
+    r_p = d[2, 0] + d[2, 1] + d[2, 2]
+    c_m = d[0, 0] + d[1, 0] + d[2, 0]
+    c_0 = d[0, 1] + d[1, 1] + d[2, 1]
+    c_p = d[0, 2] + d[1, 2] + d[2, 2]
+    b_y = (r_p - r_m) / 6.0
+    b_x = (c_p - c_m) / 6.0
+    a_yy = (r_m + r_p) / 3.0 - 2.0 * r_0 / 3.0
+    a_xx = (c_m + c_p) / 3.0 - 2.0 * c_0 / 3.0
+    a_xy = (d[2, 2] - d[2, 0] - d[0, 2] + d[0, 0]) / 4.0
+    scale = 0.0
+    for a in range(3):
+        for b in range(3):
+            scale = max(scale, d[a, b])
+    smallest = 0.5 * (a_yy + a_xx - np.sqrt((a_yy - a_xx) ** 2 + 4.0 * a_xy * a_xy))
+    if not smallest > PD_TOLERANCE * scale:
+        return 0.0, 0.0, False
+    det = a_yy * a_xx - a_xy * a_xy
+    u_y = -(a_xx * b_y - a_xy * b_x) / det
+    u_x = -(a_yy * b_x - a_xy * b_y) / det
+    if abs(u_y) <= 1.0 + SLACK and abs(u_x) <= 1.0 + SLACK:
+        return u_y, u_x, True
+    return 0.0, 0.0, False
+
+
+@njit(parallel=True)
+def _subpixel(ref, alt, tile, best, out):
+    """``out (ny, nx, 2) float32`` = integer ``best`` + the quadratic-fit offset where accepted."""
+    ny, nx = best.shape[0], best.shape[1]
+    stride = tile // 2
+    for t in prange(ny * nx):
+        i = t // nx
+        j = t % nx
+        oy = i * stride
+        ox = j * stride
+        by = best[i, j, 0]
+        bx = best[i, j, 1]
+        out[i, j, 0] = by
+        out[i, j, 1] = bx
+        d = np.empty((3, 3))
+        for a in range(3):
+            for b in range(3):
+                d[a, b] = _distance(ref, alt, oy, ox, tile, by + a - 1, bx + b - 1, True)
+        if d[1, 1] == 0.0:
+            continue
+        u_y, u_x, ok = _fit_offset(d)
+        if ok:
+            out[i, j, 0] = by + u_y
+            out[i, j, 1] = bx + u_x
+
+
+@njit(inline="always")
+def _interp_index(p, c0, stride, n):
+    """Bilinear taps of pixel ``p`` between tile centres ``c0 + i·stride``, clamped beyond the outer ones."""
+    t = (p - c0) / stride
+    if t <= 0.0:
+        return 0, 0, 0.0
+    if t >= n - 1:
+        return n - 1, n - 1, 0.0
+    i0 = int(np.floor(t))
+    return i0, i0 + 1, t - i0
+
+
+@njit(parallel=True)
+def _flow_from_tiles(vectors, tile, out):
+    """``out (2, h, w) float32``: bilinear interpolation of ``vectors (ty, tx, 2)`` placed at the tile centres."""
+    ty, tx = vectors.shape[0], vectors.shape[1]
+    h, w = out.shape[1], out.shape[2]
+    stride = tile // 2
+    c0 = 0.5 * (tile - 1)
+    for y in prange(h):
+        i0, i1, fy = _interp_index(y, c0, stride, ty)
+        for x in range(w):
+            j0, j1, fx = _interp_index(x, c0, stride, tx)
+            for c in range(2):
+                top = (1.0 - fx) * np.float64(vectors[i0, j0, c]) + fx * np.float64(vectors[i0, j1, c])
+                bottom = (1.0 - fx) * np.float64(vectors[i1, j0, c]) + fx * np.float64(vectors[i1, j1, c])
+                out[c, y, x] = (1.0 - fy) * top + fy * bottom
+
+
+# ----------------------------------------------------------------------------- checks
+def _as_image(a, name: str) -> np.ndarray:
+    arr = np.asarray(a)
+    if not np.issubdtype(arr.dtype, np.floating):
+        raise TypeError(f"{name} must be a real floating-point array (float32 or float64); got dtype {arr.dtype}")
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must be a single-channel (h, w) image on the plane grid; got shape {arr.shape}")
+    with np.errstate(over="ignore", invalid="ignore"):  # out-of-range values become inf and fail below
+        arr = np.ascontiguousarray(arr, dtype=np.float32)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite (no NaN or inf, and within float32 range)")
+    return arr
+
+
+def _check_params(params) -> AlignParams:
+    if not isinstance(params, AlignParams):
+        raise TypeError(f"params must be an AlignParams; got {type(params).__name__}")
+    return params
+
+
+def _tile_count(size: int, tile: int) -> int:
+    return (size - tile) // (tile // 2) + 1
+
+
+# ----------------------------------------------------------------------------- public
+def luma(planes) -> np.ndarray:
+    """The 2×2 luma on the plane grid: the mean of the four Bayer planes.
+
+    Parameters
+    ----------
+    planes : ndarray ``(..., 4, h, w)``, real
+        Bayer planes (R, G1, G2, B in CFA-position order, DESIGN §3), e.g. the denoised
+        firing rates ``D(I_l)``.
+
+    Returns
+    -------
+    ndarray ``(..., h, w)`` float32
+        ``(P_0 + P_1 + P_2 + P_3) / 4`` (computed in float64): the mean of each 2×2 Bayer
+        cell, the image :func:`align` works on.
+    """
+    arr = np.asarray(planes)
+    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise TypeError(f"planes must be a real numeric array; got dtype {arr.dtype}")
+    if arr.ndim < 3 or arr.shape[-3] != 4:
+        raise ValueError(f"planes must have shape (..., 4, h, w) (four Bayer planes); got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("planes must be finite (no NaN or inf)")
+    return arr.mean(axis=-3, dtype=np.float64).astype(np.float32)
+
+
+def _blur_decimate(image: np.ndarray) -> np.ndarray:
+    """One pyramid step: 5-tap binomial blur (vertical, then horizontal; edge replicate), keep even rows/cols."""
+    k0, k1, k2, k3, k4 = PYRAMID_KERNEL
+    p = np.pad(image.astype(np.float64), ((2, 2), (0, 0)), mode="edge")
+    n = image.shape[0]
+    v = (k0 * p[0:n] + k1 * p[1:n + 1] + k2 * p[2:n + 2] + k3 * p[3:n + 3] + k4 * p[4:n + 4]) / 16.0
+    v = v[::2]
+    p = np.pad(v, ((0, 0), (2, 2)), mode="edge")
+    m = image.shape[1]
+    out = (k0 * p[:, 0:m] + k1 * p[:, 1:m + 1] + k2 * p[:, 2:m + 2] + k3 * p[:, 3:m + 3] + k4 * p[:, 4:m + 4]) / 16.0
+    return np.ascontiguousarray(out[:, ::2], dtype=np.float32)
+
+
+def gaussian_pyramid(image, levels: int) -> list[np.ndarray]:
+    """Gaussian pyramid with scales ``1, ½, …, 2^−(levels−1)`` (supplement §8).
+
+    Parameters
+    ----------
+    image : ndarray ``(h, w)`` float
+        Finite image on the plane grid.
+    levels : int
+        Number of levels, ≥ 1.
+
+    Returns
+    -------
+    list of ndarray float32
+        ``levels`` arrays; level 0 is ``image`` as float32; level ``k+1`` is level ``k`` blurred
+        by ``[1, 4, 6, 4, 1] / 16`` along each axis (σ = 1, edge-replicate borders, float64
+        arithmetic) then decimated to rows and columns ``0, 2, 4, …`` (size ``ceil(n / 2)``).
+    """
+    img = _as_image(image, "image")
+    if not _is_int(levels) or levels < 1:
+        raise ValueError(f"levels must be an integer ≥ 1; got {levels!r}")
+    pyramid = [img]
+    for _ in range(int(levels) - 1):
+        pyramid.append(_blur_decimate(pyramid[-1]))
+    return pyramid
+
+
+def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PARAMS
+                ) -> tuple[np.ndarray, int]:
+    """Tile vectors of the finest level (HDR+ §4): the motion of each tile of ``reference`` in ``alternate``.
+
+    Parameters
+    ----------
+    reference, alternate : ndarray ``(h, w)`` float32 or float64
+        Finite single-channel images on the plane grid (e.g. :func:`luma` of denoised planes),
+        same shape, ``min(h, w) ≥ params.min_size(step)``.
+    step : int
+        Pipeline step ``l`` (≥ 0); picks the finest tile size ``params.tile_for_step(step)``.
+    params : AlignParams
+        Pyramid, tile and search settings.
+
+    Returns
+    -------
+    vectors : ndarray ``(ty, tx, 2)`` float32
+        ``(dy, dx)`` in plane pixels per finest-level tile, ``ty = (h − T) // (T/2) + 1`` (and the
+        same for ``tx``); tile ``(i, j)`` covers rows ``i·T/2 … i·T/2 + T − 1`` and
+        ``alternate[p + v] ≈ reference[p]`` on it.  Integers unless sub-pixel refinement moved them.
+    tile : int
+        The finest tile size ``T`` used.
+
+    Raises
+    ------
+    TypeError
+        Non-floating input or ``params`` not an :class:`AlignParams`.
+    ValueError
+        Non-2-D, non-finite or mismatched input, a bad ``step``, or a frame smaller than
+        ``params.min_size(step)`` (the message gives the minimum).
+    """
+    params = _check_params(params)
+    step = _check_step(step)
+    ref = _as_image(reference, "reference")
+    alt = _as_image(alternate, "alternate")
+    if ref.shape != alt.shape:
+        raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
+    h, w = ref.shape
+    tile = params.tile_for_step(step)
+    need = params.min_size(step)
+    if min(h, w) < need:
+        raise ValueError(f"reference is {h}×{w} on the plane grid; alignment with levels={params.levels}, "
+                         f"coarse_tile={params.coarse_tile} (finest tile {tile} at step {step}) needs at least "
+                         f"{need}×{need}")
+    ref_pyr = gaussian_pyramid(ref, params.levels)
+    alt_pyr = gaussian_pyramid(alt, params.levels)
+    vectors = None  # integer vectors of the previous (coarser) level
+    for k in range(params.levels - 1, -1, -1):
+        t = tile if k == 0 else params.coarse_tile
+        r_img, a_img = ref_pyr[k], alt_pyr[k]
+        shape = (_tile_count(r_img.shape[0], t), _tile_count(r_img.shape[1], t), 2)
+        centre = np.zeros(shape, np.int64)
+        if vectors is not None:
+            _upsample(r_img, a_img, t, vectors, params.coarse_tile, centre)
+        vectors = np.empty(shape, np.int64)
+        _search(r_img, a_img, t, centre, params.search_radius[k], k > 0, vectors)
+    out = np.empty(vectors.shape, np.float32)
+    if params.subpixel:
+        _subpixel(ref_pyr[0], alt_pyr[0], tile, vectors, out)
+    else:
+        out[...] = vectors
+    return out, tile
+
+
+def flow_from_tiles(vectors, tile: int, shape) -> np.ndarray:
+    """Per-pixel flow from tile vectors: bilinear between tile centres, clamped beyond the outer ones.
+
+    Parameters
+    ----------
+    vectors : ndarray ``(ty, tx, 2)`` float
+        ``(dy, dx)`` per tile in plane pixels (:func:`align_tiles`).
+    tile : int
+        Tile size ``T`` (even, ≥ 2); tile ``i`` has its centre at ``i·T/2 + (T − 1)/2``
+        (pixel-index coordinates).
+    shape : (int, int)
+        ``(h, w)`` of the frame; ``(ty, tx)`` must be the tile grid of that frame,
+        ``ty = (h − T) // (T/2) + 1``.
+
+    Returns
+    -------
+    ndarray ``(2, h, w)`` float32
+        ``(dy, dx)`` per pixel, convention ``alternate[y + dy, x + dx] ≈ reference[y, x]``.
+    """
+    if not _is_int(tile) or tile < 2 or tile % 2:
+        raise ValueError(f"tile must be an even integer ≥ 2; got {tile!r}")
+    try:
+        h, w = (int(s) for s in shape)
+    except (TypeError, ValueError):
+        raise ValueError(f"shape must be (h, w); got {shape!r}") from None
+    if h < tile or w < tile:
+        raise ValueError(f"shape {h}×{w} holds no tile of size {tile}")
+    arr = np.asarray(vectors)
+    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise TypeError(f"vectors must be a real numeric array; got dtype {arr.dtype}")
+    grid = (_tile_count(h, tile), _tile_count(w, tile))
+    if arr.shape != grid + (2,):
+        raise ValueError(f"vectors must have shape {grid + (2,)} (the {grid[0]}×{grid[1]} tiles of size {tile} of a "
+                         f"{h}×{w} frame, (dy, dx) each); got {arr.shape}")
+    arr = np.ascontiguousarray(arr, dtype=np.float32)
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("vectors must be finite (no NaN or inf)")
+    out = np.empty((2, h, w), np.float32)
+    _flow_from_tiles(arr, int(tile), out)
+    return out
+
+
+def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PARAMS) -> np.ndarray:
+    """Dense flow from ``reference`` to ``alternate``: HDR+ tile alignment, then bilinear interpolation.
+
+    ``align(r, a, step, params) == flow_from_tiles(*align_tiles(r, a, step, params), r.shape)``.
+
+    Parameters
+    ----------
+    reference, alternate : ndarray ``(h, w)`` float32 or float64
+        Finite single-channel images on the plane grid, same shape,
+        ``min(h, w) ≥ params.min_size(step)`` (64 with the defaults).
+    step : int
+        Pipeline step ``l`` (≥ 0): the finest tile size is ``params.tile_for_step(step)``.
+    params : AlignParams
+        Pyramid, tile and search settings.
+
+    Returns
+    -------
+    ndarray ``(2, h, w)`` float32
+        ``(dy, dx)`` in plane pixels with ``alternate[y + dy, x + dx] ≈ reference[y, x]`` —
+        ``F(x, t, t')`` of Eq. 14–15 for reference window ``t`` and alternate window ``t'``.
+    """
+    vectors, tile = align_tiles(reference, alternate, step, params)
+    h, w = np.shape(reference)
+    out = np.empty((2, h, w), np.float32)
+    _flow_from_tiles(vectors, tile, out)
+    return out

@@ -1,0 +1,321 @@
+"""HDR+ tile alignment (§4.2, supplement "Progressive warping"): kernels vs oracle, known motions, edge cases."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from spikeref.align import (
+    AlignParams, _fit_offset, _nearest_tiles, align, align_tiles, flow_from_tiles, gaussian_pyramid, luma,
+)
+from spikeref.oracles.align import (
+    align_oracle, align_tiles_oracle, flow_from_tiles_oracle, gaussian_pyramid_oracle, nearest_tiles_oracle,
+    quadratic_offset_oracle,
+)
+from spikeref.warp import warp_bilinear
+
+SMALL = AlignParams(levels=2, tile_by_step=(8, 4), coarse_tile=4, search_radius=(1, 2))
+
+
+def texture(shape, sigma=2.0, seed=0):
+    """Smooth periodic random texture: Gaussian-filtered white noise (wrap), so np.roll is seamless."""
+    rng = np.random.default_rng(seed)
+    return ndimage.gaussian_filter(rng.standard_normal(shape), sigma, mode="wrap").astype(np.float32)
+
+
+def fourier_shift(image, shift):
+    """``out(p) = image(p − shift)`` for a periodic image, so ``out[y + dy, x + dx] = image[y, x]``."""
+    return np.fft.ifft2(ndimage.fourier_shift(np.fft.fft2(image), shift)).real.astype(np.float32)
+
+
+# ----------------------------------------------------------------------------- kernel == oracle
+@pytest.mark.parametrize("shape, step, subpixel", [((64, 64), 0, True), ((72, 96), 0, False),
+                                                   ((72, 96), 2, True), ((67, 81), 1, True)])
+def test_kernels_match_the_oracle_on_random_images(shape, step, subpixel):
+    rng = np.random.default_rng(sum(shape) + step)
+    params = AlignParams(subpixel=subpixel)
+    ref = rng.random(shape, dtype=np.float32)
+    # half the pairs unrelated noise (arbitrary vectors, clamped borders), half a noisy shifted copy
+    for alt in (rng.random(shape, dtype=np.float32),
+                np.roll(ref, (5, -3), axis=(0, 1)) + 0.1 * rng.random(shape, dtype=np.float32)):
+        vectors, tile = align_tiles(ref, alt, step, params)
+        expected, tile_o = align_tiles_oracle(ref, alt, step, params)
+        assert tile == tile_o == params.tile_for_step(step)
+        assert vectors.dtype == np.float32 and vectors.shape == expected.shape
+        np.testing.assert_allclose(vectors, expected, rtol=0, atol=1e-5)
+        if not subpixel:  # integer vectors: exactly equal
+            np.testing.assert_array_equal(vectors, expected)
+            assert np.all(vectors == np.round(vectors))
+        flow = align(ref, alt, step, params)
+        assert flow.dtype == np.float32 and flow.shape == (2,) + shape
+        np.testing.assert_allclose(flow, align_oracle(ref, alt, step, params), rtol=0, atol=1e-5)
+        np.testing.assert_array_equal(flow, flow_from_tiles(vectors, tile, shape))
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**31), h=st.integers(8, 30), w=st.integers(8, 30), r0=st.integers(0, 2),
+       r1=st.integers(0, 2), subpixel=st.booleans(), shift=st.tuples(st.integers(-3, 3), st.integers(-3, 3)))
+def test_kernels_match_the_oracle_property(seed, h, w, r0, r1, subpixel, shift):
+    rng = np.random.default_rng(seed)
+    params = AlignParams(levels=2, tile_by_step=(8, 4), coarse_tile=4, search_radius=(r0, r1), subpixel=subpixel)
+    ref = rng.random((h, w)).astype(np.float32)
+    alt = np.roll(ref, shift, axis=(0, 1)) + 0.3 * rng.random((h, w)).astype(np.float32)
+    for step in (0, 1):
+        vectors, tile = align_tiles(ref, alt, step, params)
+        expected, _ = align_tiles_oracle(ref, alt, step, params)
+        np.testing.assert_allclose(vectors, expected, rtol=0, atol=1e-5)
+
+
+def test_pyramid_matches_the_oracle_and_keeps_constants():
+    img = np.random.default_rng(3).random((37, 50)).astype(np.float32)
+    pyr = gaussian_pyramid(img, 4)
+    assert [p.shape for p in pyr] == [(37, 50), (19, 25), (10, 13), (5, 7)]  # ceil(n / 2) per level
+    assert all(p.dtype == np.float32 for p in pyr)
+    assert np.array_equal(pyr[0], img)
+    for got, want in zip(pyr, gaussian_pyramid_oracle(img, 4), strict=True):
+        np.testing.assert_allclose(got, want, rtol=1e-6, atol=0)
+    for p in gaussian_pyramid(np.full((20, 9), 0.37, np.float32), 3):
+        np.testing.assert_array_equal(p, np.float32(0.37))
+    assert len(gaussian_pyramid(img, 1)) == 1
+
+
+def test_pyramid_blur_is_the_binomial_with_edge_replicate():
+    img = np.zeros((9, 9))
+    img[4, 4] = 256.0
+    level1 = gaussian_pyramid(img, 2)[1]  # rows/cols 0, 2, 4, 6, 8 of the blurred impulse
+    e = np.array([0.0, 1.0, 6.0, 1.0, 0.0])  # taps 1, 6, 1 of [1, 4, 6, 4, 1] land on the kept pixels 2, 4, 6
+    np.testing.assert_array_equal(level1, np.outer(e, e))  # 256 · (e/16) ⊗ (e/16)
+    ramp = np.tile(np.arange(6.0), (6, 1))  # the edge is replicated: column 0 sees 0, 0, 0, 1, 2
+    assert gaussian_pyramid(ramp, 2)[1][0, 0] == pytest.approx((0 + 0 + 0 + 4 + 2) / 16.0)
+
+
+def test_luma_is_the_mean_of_the_four_planes():
+    rng = np.random.default_rng(4)
+    planes = rng.random((3, 4, 5, 6))
+    out = luma(planes)
+    assert out.shape == (3, 5, 6) and out.dtype == np.float32
+    np.testing.assert_allclose(out, (planes[:, 0] + planes[:, 1] + planes[:, 2] + planes[:, 3]) / 4, rtol=1e-6)
+    np.testing.assert_array_equal(luma(np.arange(4, dtype=np.uint16).reshape(4, 1, 1)), [[1.5]])
+    with pytest.raises(ValueError, match="planes"):
+        luma(np.zeros((3, 5, 6)))
+    with pytest.raises(TypeError, match="planes"):
+        luma(np.zeros((4, 5, 6), complex))
+    with pytest.raises(ValueError, match="planes"):
+        luma(np.full((4, 2, 2), np.nan))
+
+
+# ----------------------------------------------------------------------------- pieces
+def test_nearest_coarse_tiles():
+    # fine T = 16 (stride 8) over coarse T = 8 (stride 4): fine centre 8i + 7.5 → 4i + 3.75 on the coarse grid,
+    # coarse centres 4m + 3.5: nearest m = i, neighbour on the right/bottom side i + 1 (clamped at the end)
+    for i in range(7):
+        c = 8 * i + 7.5
+        expected = (i, min(i + 1, 6))
+        assert _nearest_tiles(c, 8, 7) == expected == nearest_tiles_oracle(c, 32, 8)
+    # fine T = 8 (stride 4): centre 4i + 3.5 → 2i + 1.75 between the coarse centres 4m + 3.5 (clamped at 0)
+    got = [_nearest_tiles(4 * i + 3.5, 8, 5) for i in range(8)]
+    assert got == [(0, 0), (0, 1), (1, 0), (1, 2), (2, 1), (2, 3), (3, 2), (3, 4)]
+    assert got == [nearest_tiles_oracle(4 * i + 3.5, 24, 8) for i in range(8)]
+
+
+def test_quadratic_fit_recovers_a_quadratic_minimum():
+    a = np.array([[2.0, 0.7], [0.7, 1.5]])
+    u0 = np.array([0.3, -0.45])
+    d = np.array([[0.5 * (np.array([uy, ux]) - u0) @ a @ (np.array([uy, ux]) - u0) + 3.0 for ux in (-1, 0, 1)]
+                  for uy in (-1, 0, 1)])
+    uy, ux, ok = _fit_offset(d)
+    assert ok
+    np.testing.assert_allclose([uy, ux], u0, atol=1e-12)
+    np.testing.assert_allclose(quadratic_offset_oracle(d), u0, atol=1e-12)
+    saddle = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    assert not _fit_offset(saddle)[2] and quadratic_offset_oracle(saddle) is None
+    far = np.array([[0.5 * ((uy - 1.8) ** 2 + ux * ux) for ux in (-1, 0, 1)] for uy in (-1, 0, 1)])
+    assert not _fit_offset(far)[2] and quadratic_offset_oracle(far) is None  # |u*| > 1: keep the integer
+    assert not _fit_offset(np.full((3, 3), 2.0))[2]  # flat: A = 0 is not positive definite
+
+
+def test_flow_from_tiles_matches_the_oracle_and_interpolates():
+    rng = np.random.default_rng(5)
+    shape, tile = (41, 38), 8  # 9 × 8 tiles (stride 4); rows 40 and cols 36–37 lie beyond the last tile
+    vectors = rng.standard_normal((9, 8, 2)).astype(np.float32)
+    flow = flow_from_tiles(vectors, tile, shape)
+    assert flow.shape == (2, 41, 38) and flow.dtype == np.float32
+    np.testing.assert_allclose(flow, flow_from_tiles_oracle(vectors, tile, shape), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(flow[:, 0, 0], vectors[0, 0], atol=1e-6)  # clamped beyond the outer centres
+    np.testing.assert_allclose(flow[:, 40, 37], vectors[8, 7], atol=1e-6)
+    # vectors linear in the tile index are reproduced exactly: tile (i, j) has its centre at (4i + 3.5, 4j + 3.5)
+    i, j = np.meshgrid(np.arange(9), np.arange(8), indexing="ij")
+    plane = np.stack([i + 2.0 * j, -j / 4.0], axis=-1).astype(np.float32)
+    y, x = np.meshgrid(np.arange(41.0), np.arange(38.0), indexing="ij")
+    ty, tx = np.clip((y - 3.5) / 4, 0, 8), np.clip((x - 3.5) / 4, 0, 7)
+    np.testing.assert_allclose(flow_from_tiles(plane, tile, shape), [ty + 2 * tx, -tx / 4], atol=1e-5)
+    const = flow_from_tiles(np.broadcast_to(np.float32([1.5, -2.0]), (9, 8, 2)), tile, shape)
+    np.testing.assert_array_equal(const[0], 1.5)
+    np.testing.assert_array_equal(const[1], -2.0)
+    single = flow_from_tiles(np.float32([[[0.25, 4.0]]]), 16, (16, 23))  # one tile: constant
+    np.testing.assert_array_equal(single[1], 4.0)
+
+
+# ----------------------------------------------------------------------------- known motion
+@pytest.mark.parametrize("shift", [(0, 0), (1, -1), (3, 0), (-2, 5), (7, -11), (-20, 13)])
+def test_integer_shift_is_found_exactly(shift):
+    ref = texture((128, 128), seed=1)
+    alt = np.roll(ref, shift, axis=(0, 1))  # alt[y + dy, x + dx] = ref[y, x]
+    flow = align(ref, alt)
+    b = 40  # tiles whose search reaches past the edge see clamped samples, not the wrapped texture
+    np.testing.assert_array_equal(flow[0, b:-b, b:-b], shift[0])
+    np.testing.assert_array_equal(flow[1, b:-b, b:-b], shift[1])
+
+
+# exact recovery is an empirical property of textured input (an 8-pixel tile can meet the aperture problem),
+# so the examples are derandomized: 0 failures in 600 seeded trials of this kind, none of them flaky
+@settings(max_examples=10, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 1000), dy=st.integers(-12, 12), dx=st.integers(-12, 12), step=st.integers(0, 3))
+def test_integer_shift_property(seed, dy, dx, step):
+    ref = texture((96, 96), sigma=1.5, seed=seed)
+    flow = align(ref, np.roll(ref, (dy, dx), axis=(0, 1)), step=step)
+    b = 32
+    assert np.all(flow[0, b:-b, b:-b] == dy) and np.all(flow[1, b:-b, b:-b] == dx)
+
+
+def test_shift_beyond_the_finest_radius_needs_the_pyramid():
+    ref = texture((128, 128), seed=2)
+    alt = np.roll(ref, (7, -11), axis=(0, 1))
+    flat = AlignParams(levels=1, search_radius=(1,))
+    inner = np.s_[:, 40:-40, 40:-40]
+    assert np.all(np.abs(align(ref, alt, params=flat)[inner]) <= 2)  # one level, radius 1: cannot reach it
+    pyr = align(ref, alt)[inner]
+    assert np.all(pyr[0] == 7) and np.all(pyr[1] == -11)
+
+
+@pytest.mark.parametrize("shift", [(0.3, -0.6), (-0.5, 0.25)])
+def test_subpixel_shift(shift):
+    ref = texture((96, 96), sigma=2.5, seed=3)
+    alt = fourier_shift(ref, shift)
+    inner = np.s_[16:-16, 16:-16]
+    flow = align(ref, alt)
+    assert np.max(np.abs(flow[0][inner] - shift[0])) < 0.15
+    assert np.max(np.abs(flow[1][inner] - shift[1])) < 0.15
+    integer_params = AlignParams(subpixel=False)
+    vectors, _ = align_tiles(ref, alt, params=integer_params)
+    assert np.all(vectors == np.round(vectors))  # without the fit the tile vectors are integers
+    integer = align(ref, alt, params=integer_params)
+    assert np.max(np.abs(integer[1][inner] - shift[1])) >= 0.25
+    # the convention: warping alternate backward by the flow gives reference (and the opposite sign does not)
+    err = np.abs(warp_bilinear(alt, flow)[0][inner] - ref[inner]).mean()
+    assert err < 0.25 * np.abs(alt[inner] - ref[inner]).mean()
+    assert err < 0.25 * np.abs(warp_bilinear(alt, -flow)[0][inner] - ref[inner]).mean()
+
+
+# ----------------------------------------------------------------------------- degenerate input
+def test_flat_and_identical_input_give_zero_flow():
+    zero = np.zeros((2, 64, 80), np.float32)
+    a = np.full((64, 80), 0.4, np.float32)
+    np.testing.assert_array_equal(align(a, a), zero)
+    np.testing.assert_array_equal(align(a, np.full((64, 80), 0.9)), zero)  # both flat, different levels
+    np.testing.assert_array_equal(align(np.zeros((64, 80)), np.zeros((64, 80)), step=2), zero)
+    ref = texture((64, 80), seed=4)
+    for step in (0, 2):
+        np.testing.assert_array_equal(align(ref, ref.copy(), step=step), zero)  # exact match: no sub-pixel drift
+    np.testing.assert_array_equal(align(ref, ref, params=AlignParams(levels=1, search_radius=(3,))), zero)
+
+
+def test_ties_go_to_the_offset_closest_to_the_search_centre():
+    """Horizontal stripes match equally well at every dx: the search keeps dx = 0, not the first in raster order."""
+    rows = texture((96, 1), seed=5)
+    ref = np.repeat(rows, 96, axis=1)
+    alt = np.roll(ref, 3, axis=0)
+    flow = align(ref, alt, params=AlignParams(subpixel=False))
+    np.testing.assert_array_equal(flow[0, 24:-24], 3.0)
+    np.testing.assert_array_equal(flow[1], 0.0)
+
+
+def test_step_picks_the_tile_size():
+    ref = texture((64, 64), seed=6)
+    alt = np.roll(ref, (2, 1), axis=(0, 1))
+    assert align_tiles(ref, alt, 0)[0].shape == (7, 7, 2)  # 16-pixel tiles, stride 8
+    assert align_tiles(ref, alt, 2)[0].shape == (15, 15, 2)  # 8-pixel tiles, stride 4
+    assert align_tiles(ref, alt, 9)[1] == 8
+    assert align_tiles(ref.astype(np.float64), alt, 1)[1] == 16
+
+
+def test_motion_beyond_reach_is_finite():
+    ref = texture((64, 64), seed=7)
+    flow = align(ref, np.roll(ref, 32, axis=1), params=AlignParams(search_radius=(1, 1, 1, 1)))
+    assert np.all(np.isfinite(flow))
+
+
+# ----------------------------------------------------------------------------- parameters and bad input
+def test_params_defaults_and_validation():
+    p = AlignParams()
+    assert (p.levels, p.tile_by_step, p.coarse_tile, p.search_radius, p.subpixel) == (4, (16, 16, 8), 8,
+                                                                                      (1, 4, 4, 4), True)
+    assert [p.tile_for_step(s) for s in range(5)] == [16, 16, 8, 8, 8]
+    assert p.min_size() == 64 and SMALL.min_size(0) == 8 and AlignParams(levels=1, search_radius=(1,)).min_size() == 16
+    assert AlignParams(tile_by_step=[4], search_radius=[0, 1, 2, 3]).tile_by_step == (4,)
+    bad = [
+        (dict(levels=0, search_radius=()), "levels"),
+        (dict(levels=2.0), "levels"),
+        (dict(levels=True), "levels"),
+        (dict(tile_by_step=()), "tile_by_step"),
+        (dict(tile_by_step=(16, 7)), "tile_by_step"),
+        (dict(tile_by_step=(0,)), "tile_by_step"),
+        (dict(tile_by_step=16), "tile_by_step"),
+        (dict(coarse_tile=5), "coarse_tile"),
+        (dict(coarse_tile=0), "coarse_tile"),
+        (dict(search_radius=(1, 4, 4)), "search_radius"),
+        (dict(search_radius=(1, -1, 4, 4)), "search_radius"),
+        (dict(search_radius=(1, 4.0, 4, 4)), "search_radius"),
+        (dict(subpixel=1), "subpixel"),
+    ]
+    for kwargs, name in bad:
+        with pytest.raises(ValueError, match=name):
+            AlignParams(**kwargs)
+    with pytest.raises(ValueError, match="step"):
+        p.tile_for_step(-1)
+
+
+def test_bad_input_names_the_argument():
+    ok = np.zeros((64, 64), np.float32)
+    with pytest.raises(ValueError, match="reference must be finite"):
+        align(np.full((64, 64), np.nan), ok)
+    with pytest.raises(ValueError, match="alternate must be finite"):
+        align(ok, np.full((64, 64), np.inf))
+    with pytest.raises(ValueError, match="alternate must be finite"):
+        align(ok, np.full((64, 64), 1e300))  # beyond float32
+    with pytest.raises(ValueError, match="reference must be a single-channel"):
+        align(np.zeros((4, 64, 64)), ok)
+    with pytest.raises(ValueError, match="alternate must be a single-channel"):
+        align(ok, np.zeros(64))
+    with pytest.raises(ValueError, match="same shape"):
+        align(ok, np.zeros((64, 66), np.float32))
+    with pytest.raises(ValueError, match=r"reference is 20×30 on the plane grid; .*levels=4, coarse_tile=8.*"
+                                         r"needs at least 64×64"):
+        align(np.zeros((20, 30)), np.zeros((20, 30)))
+    with pytest.raises(ValueError, match=r"needs at least 16×16"):
+        align(np.zeros((12, 40)), np.zeros((12, 40)), params=AlignParams(levels=1, search_radius=(1,)))
+    with pytest.raises(TypeError, match="reference must be a real floating-point"):
+        align(np.zeros((64, 64), int), ok)
+    with pytest.raises(TypeError, match="alternate must be a real floating-point"):
+        align(ok, np.zeros((64, 64), complex))
+    with pytest.raises(TypeError, match="params"):
+        align(ok, ok, params={"levels": 4})
+    with pytest.raises(ValueError, match="step"):
+        align(ok, ok, step=-1)
+    with pytest.raises(ValueError, match="step"):
+        align_tiles(ok, ok, step=1.5)
+    with pytest.raises(ValueError, match="levels"):
+        gaussian_pyramid(ok, 0)
+    with pytest.raises(TypeError, match="image"):
+        gaussian_pyramid(np.zeros((8, 8), bool), 2)
+    with pytest.raises(ValueError, match="vectors must have shape"):
+        flow_from_tiles(np.zeros((3, 3, 2)), 16, (64, 64))
+    with pytest.raises(ValueError, match="tile"):
+        flow_from_tiles(np.zeros((7, 7, 2)), 15, (64, 64))
+    with pytest.raises(ValueError, match="vectors must be finite"):
+        flow_from_tiles(np.full((7, 7, 2), np.nan), 16, (64, 64))
+    with pytest.raises(TypeError, match="vectors"):
+        flow_from_tiles(np.zeros((7, 7, 2), complex), 16, (64, 64))
+    with pytest.raises(ValueError, match="shape"):
+        flow_from_tiles(np.zeros((7, 7, 2)), 16, (8, 64))
