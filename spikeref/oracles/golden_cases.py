@@ -162,6 +162,41 @@ def _warp_eq15_oracle(i):
     return {"frame": eq15_oracle(i["frames"], i["flows"])}
 
 
+def _inputs_align():
+    """A smooth texture and copies moved by known shifts: integer (3, −5), beyond the finest
+    radius (−9, 14), and sub-pixel (0.5, −0.25) by bilinear resampling; 72×80 plane pixels."""
+    from scipy.ndimage import gaussian_filter, shift
+
+    rng = np.random.default_rng(13)
+    big = gaussian_filter(rng.random((112, 120)), 1.5)
+    ref = big[20:92, 20:100].astype(np.float32)
+    shifts = np.array([[3.0, -5.0], [-9.0, 14.0], [0.5, -0.25]])
+    # alternate[y + dy, x + dx] = reference[y, x]: the content moved by (dy, dx)
+    alts = np.stack([shift(big, s, order=1, mode="nearest")[20:92, 20:100] for s in shifts]).astype(np.float32)
+    return {"reference": ref, "alternates": alts, "shifts": shifts}
+
+
+def _align_fast(i):
+    from spikeref.align import align, align_tiles
+
+    out = {}
+    for step in (0, 2):
+        out[f"vectors_step{step}"] = np.stack([align_tiles(i["reference"], a, step)[0] for a in i["alternates"]])
+        out[f"flow_step{step}"] = np.stack([align(i["reference"], a, step) for a in i["alternates"]])
+    return out
+
+
+def _align_oracle(i):
+    from spikeref.oracles.align import align_tiles_oracle, flow_from_tiles_oracle
+
+    out = {}
+    for step in (0, 2):
+        vt = [align_tiles_oracle(i["reference"], a, step) for a in i["alternates"]]
+        out[f"vectors_step{step}"] = np.stack([v for v, _ in vt])
+        out[f"flow_step{step}"] = np.stack([flow_from_tiles_oracle(v, t, i["reference"].shape) for v, t in vt])
+    return out
+
+
 def _inputs_spike_train():
     rng = np.random.default_rng(6)
     rates = np.array([[0.0, 0.004, 0.05], [0.2, 0.5, 1.0]])
@@ -306,5 +341,16 @@ CASES: list[GoldenCase] = [
         "K=3 frames (4, 6, 9) warped by their flows and averaged: Σ s_i / Σ w_i (1/K Σ where all inside).",
         _inputs_warp, _warp_eq15_oracle, _warp_eq15_fast,
         rtol=1e-5, atol=1e-6, params={"K": 3},
+    ),
+    GoldenCase(
+        "align_hdrplus", "§4.2 / supplement §9 (HDR+ alignment)", "spikeref.align.align_tiles, spikeref.align.align",
+        "spikeref.oracles.align.align_tiles_oracle",
+        "Tile vectors and per-pixel flow (dy, dx) of three known shifts of a smooth texture (72×80 plane "
+        "pixels), default AlignParams, at step 0 (16-pixel tiles) and step 2 (8-pixel tiles). Convention: "
+        "alternate[y+dy, x+dx] ≈ reference[y, x]; in_shifts holds the true motion.",
+        _inputs_align, _align_oracle, _align_fast,
+        rtol=1e-5, atol=1e-5,
+        params={"levels": 4, "tile_by_step": [16, 16, 8], "coarse_tile": 8, "search_radius": [1, 4, 4, 4],
+                "subpixel": True, "pyramid_kernel": [1, 4, 6, 4, 1]},
     ),
 ]
