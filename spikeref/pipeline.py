@@ -41,6 +41,8 @@ the ``2(L − l)h + 1`` windows that later frames still need; windows are read f
 
 from __future__ import annotations
 
+import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
@@ -176,6 +178,8 @@ class Reconstructor:
         if p.align and p.K > 1 and p.L > 0:
             _check_align_size(stream.height // 2, stream.width // 2, p)
         self._denoise = self._make_denoiser(denoiser)
+        #: seconds spent per stage since construction (accumulate, denoise, align, warp, demosaic)
+        self.timings: dict[str, float] = dict.fromkeys(("accumulate", "denoise", "align", "warp", "demosaic"), 0.0)
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray], np.ndarray]:
@@ -218,6 +222,14 @@ class Reconstructor:
 class _State:
     """The per-step rings of one pass over increasing frame numbers."""
 
+    @contextmanager
+    def timed(self, stage: str):
+        t0 = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.rec.timings[stage] += time.perf_counter() - t0
+
     def __init__(self, rec: Reconstructor, keep_flows: bool = False):
         self.rec = rec
         self.p = rec.params
@@ -232,8 +244,9 @@ class _State:
         if k not in self.counts:
             from spikeref.accumulate import window_counts
 
-            c = window_counts(self.stream, self.p.window, start=k * self.p.window, count=1)[0]
-            self.counts[k] = bayer_planes(c)
+            with self.timed("accumulate"):
+                c = window_counts(self.stream, self.p.window, start=k * self.p.window, count=1)[0]
+                self.counts[k] = bayer_planes(c)
         return self.counts[k]
 
     def planes(self, level: int, k: int) -> np.ndarray:
@@ -250,7 +263,8 @@ class _State:
             self.planes(level, k)
             entry = self.levels[level][k]
         if entry[1] is None:
-            out = np.asarray(self.rec._denoise(entry[0]), dtype=np.float32)
+            with self.timed("denoise"):
+                out = np.asarray(self.rec._denoise(entry[0]), dtype=np.float32)
             if out.shape != entry[0].shape:
                 raise ValueError(f"the denoiser returned shape {out.shape} for planes {entry[0].shape}")
             entry[1] = out
@@ -274,7 +288,9 @@ class _State:
         tile_step = level
         for j, i in enumerate(range(-hh, hh + 1)):
             if i:
-                out[j] = align(ref, self.luma(level, k + i), step=tile_step, params=p.align_params)
+                alt = self.luma(level, k + i)
+                with self.timed("align"):
+                    out[j] = align(ref, alt, step=tile_step, params=p.align_params)
         return out
 
     def _compute(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray | None]:
@@ -286,14 +302,17 @@ class _State:
         fl = self.flows(level - 1, k)
         if level == 1:  # Eq. 14: the spike planes of K windows
             counts = np.stack([self.window_counts(j) for j in neighbours])
-            return warp_spike_windows(counts, fl, p.window), fl
+            with self.timed("warp"):
+                return warp_spike_windows(counts, fl, p.window), fl
         frames = np.stack([self.planes(level - 1, j) for j in neighbours])  # Eq. 15
-        return warp_average(frames, fl), fl
+        with self.timed("warp"):
+            return warp_average(frames, fl), fl
 
     # output ------------------------------------------------------------
     def finish(self, planes: np.ndarray) -> np.ndarray:
-        mosaic = bayer_mosaic(planes, self.stream.cfa or "RGGB")
-        return demosaic_bilinear(mosaic, self.stream.cfa) if self.stream.cfa else mosaic
+        with self.timed("demosaic"):
+            mosaic = bayer_mosaic(planes, self.stream.cfa or "RGGB")
+            return demosaic_bilinear(mosaic, self.stream.cfa) if self.stream.cfa else mosaic
 
     def output(self, k: int, keep_steps: bool) -> ReconstructedFrame:
         L = self.p.L

@@ -94,3 +94,47 @@ def test_noise_check_on_a_static_simulation(tmp_path, capsys):
     assert main(["noise-check", str(out), "--windows", "5,10,50,100"]) == 0
     text = capsys.readouterr().out
     assert "| 5 | 0.25 |" in text and "R mean abs" in text and "E[I_c]" in text
+
+
+@pytest.fixture(scope="module")
+def random_weights(tmp_path_factory):
+    from spikeref.denoise.unet import UNet, UNetSpec
+
+    path = tmp_path_factory.mktemp("w") / "w16.npz"
+    UNet.random(UNetSpec(width=16), seed=0).save(path)
+    return path
+
+
+def test_reconstruct_chunks_and_resume_equal_one_run(tmp_path, random_weights, capsys):
+    w = ["--weights", str(random_weights), "-L", "2"]
+    assert main(["reconstruct", "-o", str(tmp_path / "a.mp4"), "--exr-dir", str(tmp_path / "a"), "--frames", "2:7", *w]) == 0
+    assert "frames 2:7 at 2000 FPS" in capsys.readouterr().err
+    # an interrupted run: frames 2:4 written, then --resume completes 2:7 without recomputing them
+    assert main(["reconstruct", "--exr-dir", str(tmp_path / "b"), "--frames", "2:4", *w]) == 0
+    first = (tmp_path / "b" / "frame_000002.exr").stat().st_mtime_ns
+    assert main(["reconstruct", "-o", str(tmp_path / "b.mp4"), "--exr-dir", str(tmp_path / "b"), "--frames", "2:7",
+                 "--resume", *w]) == 0
+    assert "2 already written" in capsys.readouterr().err
+    assert (tmp_path / "b" / "frame_000002.exr").stat().st_mtime_ns == first
+    names = sorted(p.name for p in (tmp_path / "a").iterdir())
+    assert names == [f"frame_{k:06d}.exr" for k in range(2, 7)]
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == names
+    for n in names:
+        np.testing.assert_array_equal(read_exr(tmp_path / "a" / n), read_exr(tmp_path / "b" / n))
+    assert (tmp_path / "b.mp4").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--frames", "0:5"], "this stream has frames 3:23"),
+    (["--frames", "5"], "--frames must look like a:b"),
+    (["-K", "2"], "K must be odd"),
+    (["-W", "0"], "window must be an integer ≥ 1"),
+    (["-W", "40"], "needs ((K−1)L+1)·W = 280 planes"),
+    (["--resume"], "--resume needs --exr-dir"),
+])
+def test_reconstruct_bad_input(tmp_path, random_weights, capsys, extra, message):
+    out = tmp_path / "v.mp4"
+    argv = ["reconstruct", "-o", str(out), "--weights", str(random_weights), *extra]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()

@@ -102,6 +102,7 @@ def test_keep_steps_gives_every_step_and_flow(sample):
     np.testing.assert_array_equal(f.steps[-1], f.rgb)
     assert sorted(f.flows) == [(level, i) for level in range(3) for i in (-1, 1)]
     assert all(fl.shape == (2, 112, 128) and np.all(np.isfinite(fl)) for fl in f.flows.values())
+    assert all(seconds > 0 for seconds in rec.timings.values()), rec.timings
     # later steps see more planes: less noise than step 0 (Fig. 5)
     noise = [np.std(s - f.steps[-1]) for s in f.steps]
     assert noise[0] > noise[1] > noise[2] > noise[3] == 0

@@ -1,0 +1,56 @@
+"""The whole progressive warping (W = 10, K = 3, L = 3): output frames/s and where the time goes.
+
+Input: Bernoulli spikes of a smooth texture moving 1 px per window, colour (RGGB), in memory.
+The baseline measured in the same run is the denoised TFP (``L = 0``: one denoiser pass and Ψ
+per frame), so the ratio says what the progressive warping costs on top of it.  The
+denoiser is a width-16 U-Net (the bundled weights' shape; random weights cost the same).
+"""
+
+import time
+
+import numpy as np
+import pytest
+
+from spikeref.denoise.denoiser import Denoiser
+from spikeref.denoise.unet import UNet, UNetSpec
+from spikeref.pipeline import ReconstructParams, Reconstructor
+from spikeref.stream import SpikeStream
+
+
+def _stream(h, w, planes, seed=0):
+    rng = np.random.default_rng(seed)
+    from scipy.ndimage import gaussian_filter
+
+    tex = gaussian_filter(rng.random((h + 64, w + 64)), 3.0)
+    tex = 0.05 + 0.9 * (tex - tex.min()) / np.ptp(tex)
+    out = np.empty((planes, h, w), np.uint8)
+    for t in range(0, planes, 10):
+        s = t // 10
+        img = tex[32:32 + h, 32 + s % 32:32 + s % 32 + w]
+        n = min(10, planes - t)
+        out[t:t + n] = rng.random((n, h, w)) < img
+    return SpikeStream.from_array(out, cfa="RGGB", check=False)
+
+
+def _run(stream, params, den, n_frames):
+    rec = Reconstructor(stream, params, den)
+    a = rec.frames_available.start
+    t0 = time.perf_counter()
+    for _ in rec.frames(a, a + n_frames):
+        pass
+    return (time.perf_counter() - t0) / n_frames, rec.timings
+
+
+@pytest.mark.parametrize("size, n_frames", [((250, 400), 12), ((1000, 1000), 3)])
+def test_pipeline_fps(benchmark, report, size, n_frames):
+    den = Denoiser(UNet.random(UNetSpec(width=16), seed=0))
+    stream = _stream(*size, planes=(n_frames + 6) * 10 + 10)
+    _run(stream, ReconstructParams(), den, 1)  # compile
+    per_frame, timings = benchmark.pedantic(lambda: _run(stream, ReconstructParams(), den, n_frames),
+                                            rounds=1, iterations=1)
+    base, _ = _run(stream, ReconstructParams(L=0), den, n_frames)
+    total = sum(timings.values())
+    parts = ", ".join(f"{k} {v / total:4.0%}" for k, v in timings.items())
+    report(f"pipeline W=10 K=3 L=3, {size[0]}x{size[1]}",
+           f"{1 / per_frame:6.2f} frames/s ({per_frame:6.3f} s/frame); denoised TFP (L=0) {1 / base:6.2f} frames/s; "
+           f"ratio {per_frame / base:4.1f}x; time: {parts}")
