@@ -107,7 +107,8 @@ def random_weights(tmp_path_factory):
 
 def test_reconstruct_chunks_and_resume_equal_one_run(tmp_path, random_weights, capsys):
     w = ["--weights", str(random_weights), "-L", "2"]
-    assert main(["reconstruct", "-o", str(tmp_path / "a.mp4"), "--exr-dir", str(tmp_path / "a"), "--frames", "2:7", *w]) == 0
+    a_out = ["-o", str(tmp_path / "a.mp4"), "--exr-dir", str(tmp_path / "a")]
+    assert main(["reconstruct", *a_out, "--frames", "2:7", *w]) == 0
     assert "frames 2:7 at 2000 FPS" in capsys.readouterr().err
     # an interrupted run: frames 2:4 written, then --resume completes 2:7 without recomputing them
     assert main(["reconstruct", "--exr-dir", str(tmp_path / "b"), "--frames", "2:4", *w]) == 0
