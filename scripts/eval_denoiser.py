@@ -58,7 +58,9 @@ def main() -> None:
     args = ap.parse_args()
     modes = args.modes.split(",")
     windows = [int(w) for w in args.windows.split(",")]
-    denoisers = {p.stem: Denoiser.load(p) for p in args.weights}
+    stems = [p.stem for p in args.weights]  # name by folder too where two files share a name
+    denoisers = {(f"{p.parent.name}/{p.stem}" if stems.count(p.stem) > 1 else p.stem): Denoiser.load(p)
+                 for p in args.weights}
     args.data_dir.mkdir(parents=True, exist_ok=True)
 
     rows = []  # (scene, W, method, psnr, ssim)
@@ -88,7 +90,7 @@ def main() -> None:
                 for name, den in denoisers.items():
                     for mode in modes:
                         t0 = time.perf_counter()
-                        clean = den(planes, mode)
+                        clean = den(planes, mode, window=w)
                         seconds.setdefault(f"{name}/{mode}", []).append(time.perf_counter() - t0)
                         score(f"{name}/{mode}", demosaic_bilinear(bayer_mosaic(clean), stream.cfa))
         print(f"{toml.stem} done", file=sys.stderr, flush=True)

@@ -9,9 +9,19 @@
 ``--steps`` fixes the step count (the bundled weights' counts are in ``docs/results.md`` and in
 each file's metadata).  Without it, ``--budget-s`` seconds are shared: a 40-step probe of every
 width measures the step time and the step counts are chosen to fill the budget; the commands
-actually run are printed, so a run can be repeated with fixed steps.
+actually run are printed, so a run can be repeated with fixed steps.  (On a GPU the probe's
+first steps include cuDNN's autotuning: it over-estimates the step time about 3×.)
 
-    python scripts/train_denoiser.py --steps 6000 --channels 32 --out out/weights
+The bundled files (2026-11-23, one H100, ``docs/results.md``):
+
+    # b2u_w16.npz — counts (the default input domain), lr 1e-3, 2800-step schedule stopped
+    # after step 2200 (the GPU lease ended), exported from that checkpoint:
+    spikeref train .train_data/train_*.dat -o b2u_w16.npz --channels 16 --steps 2800 \
+        --lr 1e-3 --checkpoint-every 100 --stop-after 2200
+    # b2u_w32.npz — rates, before counts became the default:
+    spikeref train .train_data/train_*.dat -o b2u_w32.npz --channels 32 --steps 2300 --input-domain rate
+
+    python scripts/train_denoiser.py --steps 6000 --channels 32 --lr 1e-3 --out out/weights
 """
 
 from __future__ import annotations
@@ -40,9 +50,9 @@ def simulate_missing(data_dir: Path) -> list[Path]:
     return out
 
 
-def command(data, channels, steps, output, extra=()):
+def command(data, channels, steps, output, extra=(), lr=None):
     return [sys.executable, "-m", "spikeref.cli", "train", *map(str, data), "-o", str(output),
-            "--channels", str(channels), "--steps", str(steps), *extra]
+            "--channels", str(channels), "--steps", str(steps), *(["--lr", str(lr)] if lr else []), *extra]
 
 
 def run_all(commands, logs):
@@ -64,6 +74,7 @@ def main() -> None:
     ap.add_argument("--channels", default="32", help="comma-separated U-Net widths")
     ap.add_argument("--steps", type=int, default=None, help="fixed step count (else fill --budget-s)")
     ap.add_argument("--budget-s", type=float, default=480.0, help="seconds for probe + training")
+    ap.add_argument("--lr", type=float, default=None, help="learning rate (default: spikeref train's)")
     args = ap.parse_args()
     t0 = time.time()
     widths = [int(c) for c in args.channels.split(",")]
@@ -84,7 +95,7 @@ def main() -> None:
         for c in widths:
             for suffix in (".npz", ".npz.ckpt", ".log"):
                 (args.out / f"probe_w{c}{suffix}").unlink(missing_ok=True)
-    run_all([command(data, c, steps[c], args.out / f"b2u_w{c}.npz") for c in widths],
+    run_all([command(data, c, steps[c], args.out / f"b2u_w{c}.npz", lr=args.lr) for c in widths],
             [args.out / f"train_w{c}.log" for c in widths])
     print(f"done in {time.time() - t0:.0f} s", flush=True)
 

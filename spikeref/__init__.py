@@ -37,6 +37,13 @@ _EXPORTS = {
     "ground_truth": "spikeref.simulate.simulator",
     "noise_check": "spikeref.noise_check",
     "Denoiser": "spikeref.denoise.denoiser",
+    "AlignParams": "spikeref.align",
+    "align": "spikeref.align",
+    "warp_spike_windows": "spikeref.warp",
+    "warp_average": "spikeref.warp",
+    "ReconstructParams": "spikeref.pipeline",
+    "Reconstructor": "spikeref.pipeline",
+    "reconstruct": "spikeref.pipeline",
 }
 
 __all__ = list(_EXPORTS)

@@ -207,12 +207,12 @@ def cmd_train(args) -> int:
         streams.append(open_spike_file(path, height=args.height, width=args.width, file_width=args.file_width))
     cfg = TrainConfig(width=args.channels, steps=args.steps, batch=args.batch, patch=args.patch, lr=args.lr,
                       window_min=args.window_min, window_max=args.window_max,
-                      checkpoint_every=args.checkpoint_every, seed=args.seed)
+                      input_domain=args.input_domain, checkpoint_every=args.checkpoint_every, seed=args.seed)
     describe = {"command": "spikeref train " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else "spikeref train",
                 "data": [{"file": Path(s.path).name, "planes": len(s), "height": s.height, "width": s.width}
                          for s in streams]}
     summary = train(streams, args.output, cfg, checkpoint=args.checkpoint, resume=args.resume,
-                    device=args.device, describe=describe)
+                    device=args.device, describe=describe, stop_after=args.stop_after)
     print(f"wrote {args.output}: {summary['steps']} steps in {summary['seconds']:.1f} s, "
           f"final loss {summary['final_loss']:.4g}")
     return 0
@@ -336,7 +336,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
                    help="visible: one network pass; blind: Eq. 10-11, 16 passes; mixed: (D + λf)/(1 + λ)")
     p.add_argument("--lam", type=float, default=2.0, help="λ of the mixed mode")
-    p.add_argument("--weights", type=Path, default=None, help="weights .npz (default: the bundled weights)")
+    p.add_argument("--weights", type=Path, default=None,
+                   help="weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little sharper)")
     p.add_argument("--start", type=int, default=0, help="first plane")
     p.add_argument("--frames", type=int, default=None, help="number of frames (default: every whole window)")
     p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
@@ -363,7 +364,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
                    help="denoiser inference: visible (1 pass), blind (Eq. 10-11, 16 passes), mixed (17)")
     p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
-    p.add_argument("--weights", type=Path, default=None, help="denoiser weights .npz (default: the bundled weights)")
+    p.add_argument("--weights", type=Path, default=None,
+                   help="denoiser weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little "
+                        "sharper)")
     p.add_argument("--frames", default=None, help="frame numbers a:b to reconstruct (b excluded; default all); "
                    "chunks give exactly the frames of a full run")
     p.add_argument("--resume", action="store_true",
@@ -389,9 +392,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--window-min", type=int, default=5, help="shortest window W, planes")
     p.add_argument("--window-max", type=int, default=200, help="longest window W, planes (log-uniform draw)")
     p.add_argument("--seed", type=int, default=0, help="seed of crops, augmentation and initial weights")
+    p.add_argument("--input-domain", choices=["count", "rate"], default="count",
+                   help="what the network sees: spike counts I·W (noise level nearly independent of W) or "
+                        "firing rates I")
     p.add_argument("--checkpoint", type=Path, default=None, help="checkpoint file (default: OUTPUT.ckpt)")
     p.add_argument("--checkpoint-every", type=int, default=500, help="steps between checkpoints")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint if it exists")
+    p.add_argument("--stop-after", type=int, default=None,
+                   help="stop after this many of the --steps schedule's steps and write the weights "
+                        "(with --resume from a checkpoint at that step: export it without training)")
     p.add_argument("--device", default=None, help="torch device, e.g. cpu or cuda (default: cuda if available)")
     p.add_argument("--height", type=int, default=None, help="image height of .dat files without NAME.json")
     p.add_argument("--width", type=int, default=None, help="image width of .dat files without NAME.json")

@@ -30,6 +30,11 @@ Interpretations (DESIGN §4)
 * ``K = 1`` or ``L = 0`` reduces to the denoised TFP ``Ψ[D(I_0)]`` (no flow is computed);
   ``align=False`` uses zero flow (plain accumulation over the support: TFP with a
   ``((K−1)L+1)·W`` window, then ``D`` and Ψ) — for the accuracy-vs-time study.
+* A denoiser trained on spike counts (``Denoiser.input_domain == "count"``) is told the
+  exposure of what it denoises: ``W`` at step 0 and the noise-equivalent window
+  :func:`exposure_planes` at step ``l`` (``K W`` at step 1; at ``l ≥ 2`` the average of
+  overlapping frames weighs the windows of the support unequally, so less than
+  ``((K−1)l+1)·W``).
 * A monochrome stream is handled as four 2×2 phases and the output is the re-mosaicked
   ``(H, W)`` frame (no Ψ).
 
@@ -54,7 +59,7 @@ from spikeref.stream import SpikeStream
 from spikeref.warp import warp_average, warp_spike_windows
 
 __all__ = ["ReconstructParams", "ReconstructedFrame", "Reconstructor", "reconstruct", "frame_range",
-           "support_planes"]
+           "support_planes", "exposure_planes"]
 
 
 @dataclass(frozen=True)
@@ -112,6 +117,24 @@ class ReconstructParams:
     def support_windows(self) -> int:
         """``(K − 1)L + 1`` windows."""
         return 2 * self.reach + 1
+
+
+def exposure_planes(window: int, K: int, level: int) -> float:
+    """Noise-equivalent window of ``I_l``, in planes: what a count-domain denoiser is told.
+
+    ``I_0`` is one window (``W``); ``I_1`` sums ``K`` windows (Eq. 14: ``K W``); ``I_l`` for
+    ``l ≥ 2`` averages ``K`` overlapping ``I_{l−1}`` (Eq. 15), so window ``j`` of the support
+    carries the weight ``c_j`` of the ``l``-fold convolution of ``K`` equal weights, and the
+    mean's variance is that of ``W / Σ c_j²`` planes (``K = 3, l = 2``: ``81/19 W ≈ 4.26 W``
+    rather than the support's ``5 W``).  Warping's interpolation is ignored.
+    """
+    if level <= 0 or K == 1:
+        return float(window)
+    c = np.ones(1)
+    for _ in range(level):
+        c = np.convolve(c, np.ones(K))
+    c /= c.sum()
+    return float(window / np.sum(c * c))
 
 
 def support_planes(window: int = 10, K: int = 3, L: int = 3) -> int:
@@ -182,18 +205,18 @@ class Reconstructor:
         self.timings: dict[str, float] = dict.fromkeys(("accumulate", "denoise", "align", "warp", "demosaic"), 0.0)
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
 
-    def _make_denoiser(self, denoiser) -> Callable[[np.ndarray], np.ndarray]:
+    def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float], np.ndarray]:
         from spikeref.denoise.denoiser import Denoiser
 
         if denoiser is None:
             denoiser = Denoiser.load()
         if isinstance(denoiser, Denoiser):
             mode = self.params.mode
-            return lambda planes: denoiser(planes, mode)
+            return lambda planes, exposure: denoiser(planes, mode, window=exposure)
         if not callable(denoiser):
             raise TypeError(f"denoiser must be a Denoiser or a callable on (4, h, w) planes; "
                             f"got {type(denoiser).__name__}")
-        return denoiser
+        return lambda planes, exposure: denoiser(planes)
 
     # ------------------------------------------------------------------ public
     def frames(self, start: int | None = None, stop: int | None = None,
@@ -264,7 +287,8 @@ class _State:
             entry = self.levels[level][k]
         if entry[1] is None:
             with self.timed("denoise"):
-                out = np.asarray(self.rec._denoise(entry[0]), dtype=np.float32)
+                exposure = exposure_planes(self.p.window, self.p.K, level)
+                out = np.asarray(self.rec._denoise(entry[0], exposure), dtype=np.float32)
             if out.shape != entry[0].shape:
                 raise ValueError(f"the denoiser returned shape {out.shape} for planes {entry[0].shape}")
             entry[1] = out

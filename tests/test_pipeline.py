@@ -9,6 +9,7 @@ from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
 from spikeref.pipeline import (
     ReconstructParams,
     Reconstructor,
+    exposure_planes,
     frame_range,
     reconstruct,
     support_planes,
@@ -48,6 +49,31 @@ def test_k1_or_l0_is_the_denoised_tfp(sample, K, L):
     rec = Reconstructor(sample, ReconstructParams(window=10, K=K, L=L), denoiser=halve)
     for f in rec.frames(5, 8):
         np.testing.assert_allclose(f.rgb, _tfp_rgb(sample, f.index * 10, 10, halve), rtol=1e-6, atol=1e-7)
+
+
+def test_exposure_planes_is_the_noise_equivalent_window():
+    assert exposure_planes(10, 3, 0) == 10.0 and exposure_planes(10, 1, 3) == 10.0
+    assert exposure_planes(10, 3, 1) == pytest.approx(30.0)  # Eq. 14 sums K windows
+    # Eq. 15 with K = 3: windows weighted 1, 2, 3, 2, 1 over 9 → variance 19/81 of one window's
+    assert exposure_planes(10, 3, 2) == pytest.approx(10 * 81 / 19)
+    assert exposure_planes(10, 5, 2) == pytest.approx(10 / sum((np.convolve(np.ones(5), np.ones(5)) / 25) ** 2))
+
+
+def test_count_domain_denoiser_is_told_each_steps_exposure(sample):
+    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.denoise.unet import UNet, UNetSpec
+
+    seen = []
+
+    class Recording(Denoiser):
+        def __call__(self, planes, mode=None, window=None):
+            seen.append(window)
+            return np.asarray(planes, np.float32)
+
+    net = UNet.random(UNetSpec(width=4, depth=3), seed=0)
+    den = Recording(UNet(net.spec, net.params, {"input_domain": "count"}))
+    list(Reconstructor(sample, ReconstructParams(window=10, K=3, L=2), denoiser=den).frames(6, 7))
+    assert sorted(set(seen)) == [10.0, pytest.approx(30.0), pytest.approx(10 * 81 / 19)]
 
 
 def test_zero_flow_is_weighted_accumulation_over_the_support(sample):

@@ -62,6 +62,21 @@ def test_samples_are_rates_of_whole_windows_within_the_range():
         assert any(np.allclose(img * w, np.round(img * w), atol=1e-5) for w in range(5, 10))
 
 
+def test_count_samples_are_whole_counts_with_their_windows():
+    stream = SpikeStream.from_array(_spikes())
+    rates = tr.CropSampler([stream], 16, 5, 9).sample(np.random.default_rng(1), 3)
+    counts, windows = tr.CropSampler([stream], 16, 5, 9, domain="count").sample(
+        np.random.default_rng(1), 3, with_windows=True)  # same draws, counts instead of rates
+    assert windows.shape == (12,) and set(windows.tolist()) <= set(range(5, 10))
+    np.testing.assert_array_equal(counts, torch.round(counts))
+    np.testing.assert_allclose(counts, rates * windows[:, None, None, None], rtol=1e-6)
+    assert (counts.amax((1, 2, 3)) <= windows).all()
+    with pytest.raises(ValueError, match="domain must be one of"):
+        tr.CropSampler([stream], 16, 5, 9, domain="photons")
+    with pytest.raises(ValueError, match="input_domain must be one of"):
+        tr.TrainConfig(input_domain="photons")
+
+
 def test_streams_too_small_are_refused():
     small = SpikeStream.from_array(_spikes((10, 20, 20)))
     with pytest.raises(ValueError, match="smaller than the training crop"):
@@ -84,11 +99,11 @@ def test_interrupted_training_resumes_to_the_same_weights(tmp_path, monkeypatch)
     calls = {"n": 0}
     original = tr.CropSampler.sample
 
-    def failing(self, rng, batch):
+    def failing(self, rng, batch, **kw):
         calls["n"] += 1
         if calls["n"] == 5:  # after the checkpoint at step 3, during step 5
             raise KeyboardInterrupt
-        return original(self, rng, batch)
+        return original(self, rng, batch, **kw)
 
     monkeypatch.setattr(tr.CropSampler, "sample", failing)
     with pytest.raises(KeyboardInterrupt):
@@ -116,3 +131,18 @@ def test_training_lowers_the_loss_and_writes_numpy_weights(tmp_path):
     net = UNet.load(tmp_path / "w.npz")
     assert net.spec.width == 8 and net.meta["config"]["steps"] == 60
     assert net.meta["final_loss"] == pytest.approx(summary["final_loss"])
+
+
+def test_stop_after_exports_part_of_the_schedule_and_resumes(tmp_path):
+    streams = [SpikeStream.from_array(_spikes())]
+    cfg = _tiny_config()
+    tr.train(streams, tmp_path / "whole.npz", cfg, device="cpu", progress=False)
+    part = tr.train(streams, tmp_path / "part.npz", cfg, device="cpu", progress=False, stop_after=3)
+    assert part["steps"] == 3 and UNet.load(tmp_path / "part.npz").meta["steps_run"] == 3
+    # the same checkpoint continued to the end equals the uninterrupted run (same schedule)
+    tr.train(streams, tmp_path / "part.npz", cfg, resume=True, device="cpu", progress=False)
+    a, b = UNet.load(tmp_path / "whole.npz"), UNet.load(tmp_path / "part.npz")
+    for key in a.params:
+        np.testing.assert_array_equal(a.params[key], b.params[key], err_msg=key)
+    with pytest.raises(ValueError, match="past stop_after"):
+        tr.train(streams, tmp_path / "part.npz", cfg, resume=True, device="cpu", progress=False, stop_after=2)

@@ -1,8 +1,8 @@
 """The denoiser as users call it: bundled weights, the three inference modes, frames of a stream.
 
 ``Denoiser.load()`` reads the bundled weights (:data:`DEFAULT_WEIGHTS`, trained here on
-simulated scenes — see ``docs/results.md``); ``den(planes, mode)`` denoises Bayer planes of
-firing rates with the shared one-channel U-Net (:mod:`spikeref.denoise.unet`) in the mode
+simulated scenes — see ``docs/results.md``); ``den(planes, mode, window=W)`` denoises Bayer planes of
+firing rates (exposure ``W`` planes) with the shared one-channel U-Net (:mod:`spikeref.denoise.unet`) in the mode
 asked for (:mod:`spikeref.denoise.blindspot`); :meth:`Denoiser.frames` gives ``Ψ[D(I)]`` for
 the windows of a spike stream (Eq. 4, then D, then the bilinear demosaic Ψ).
 """
@@ -21,7 +21,7 @@ __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR"]
 
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 #: The bundled weights used when none are named.
-DEFAULT_WEIGHTS = WEIGHTS_DIR / "b2u_w32.npz"
+DEFAULT_WEIGHTS = WEIGHTS_DIR / "b2u_w16.npz"
 
 
 class Denoiser:
@@ -38,6 +38,16 @@ class Denoiser:
         ``λ`` of the mixed mode.
     cell : int
         Blind-spot cell (4 → 16 masks).
+
+    Attributes
+    ----------
+    input_domain : {"count", "rate"}
+        What the network was trained on (the weights' metadata; ``"rate"`` when it says
+        nothing).  A ``"count"`` network denoises ``I·W`` — the spike counts, whose noise level
+        hardly depends on the exposure — and the result is divided by ``W`` again, so callers
+        always pass and get firing rates but must say the exposure ``window``.  Interpretation:
+        Eq. 10–12 are written on ``I``; a network on ``I`` alone cannot tell a clean long window
+        from a noisy short one (``spikeref.denoise.train.TrainConfig.input_domain``).
     """
 
     def __init__(self, unet: UNet, mode: str = "visible", lam: float = 2.0, cell: int = 4):
@@ -46,25 +56,57 @@ class Denoiser:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
         self.unet, self.mode, self.lam, self.cell = unet, mode, float(lam), cell
+        domain = unet.meta.get("input_domain", unet.meta.get("config", {}).get("input_domain", "rate"))
+        if domain not in ("count", "rate"):
+            raise ValueError(f"the weights' metadata names an unknown input_domain {domain!r} (count or rate)")
+        self.input_domain = domain
 
     @classmethod
     def load(cls, path=None, **kw) -> "Denoiser":
-        """From a weights ``.npz`` (default: the bundled :data:`DEFAULT_WEIGHTS`)."""
-        path = Path(path) if path is not None else DEFAULT_WEIGHTS
+        """From a weights ``.npz`` or the name of a bundled file (default: :data:`DEFAULT_WEIGHTS`).
+
+        Bundled (``spikeref/denoise/weights/``, see ``docs/results.md``): ``b2u_w16`` (width 16,
+        trained on counts; the default) and ``b2u_w32`` (width 32, trained on rates; about twice
+        the time per frame).
+        """
+        if path is None:
+            path = DEFAULT_WEIGHTS
+        else:
+            path = Path(path)
+            bundled = WEIGHTS_DIR / (path.name if path.suffix == ".npz" else path.name + ".npz")
+            if not path.exists() and path.parent == Path(".") and bundled.is_file():
+                path = bundled
         return cls(UNet.load(path), **kw)
 
     def __repr__(self) -> str:
         return f"Denoiser({self.unet!r}, mode={self.mode!r})"
 
-    def __call__(self, planes, mode: str | None = None) -> np.ndarray:
-        """Denoise firing-rate planes ``(..., h, w)`` float (e.g. ``(4, H/2, W/2)``); same shape, float32."""
+    def __call__(self, planes, mode: str | None = None, window: float | None = None) -> np.ndarray:
+        """Denoise firing-rate planes ``(..., h, w)`` float (e.g. ``(4, H/2, W/2)``); same shape, float32.
+
+        ``window`` is the exposure behind the rates, in planes (``W`` of Eq. 4; for a warped
+        accumulation its noise-equivalent length).  A count-domain network needs it; a
+        rate-domain network ignores it.
+        """
         arr = np.asarray(planes)
         if arr.ndim < 2:
             raise ValueError(f"planes must have shape (..., h, w); got {arr.shape}")
         if not np.issubdtype(arr.dtype, np.floating):
             raise TypeError(f"planes must be floating point firing rates; got {arr.dtype}")
-        return blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
-                                 cell=self.cell, lam=self.lam)
+        if self.input_domain == "rate":
+            return blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
+                                     cell=self.cell, lam=self.lam)
+        if window is None:
+            raise ValueError("these weights denoise spike counts: pass window= (the exposure in planes, "
+                             "W of Eq. 4)")
+        if isinstance(window, bool) or not isinstance(window, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(window) or window <= 0:
+            raise ValueError(f"window must be a positive number of planes; got {window!r}")
+        scale = np.float32(window)
+        counts = arr.astype(np.float32) * scale
+        out = blindspot_denoise(counts, self.unet, mode or self.mode, cell=self.cell, lam=self.lam)
+        out /= scale
+        return out
 
     def frames(self, stream, window: int = 10, start: int = 0, count: int | None = None,
                mode: str | None = None) -> Iterator[tuple[int, np.ndarray]]:
@@ -87,5 +129,5 @@ class Denoiser:
         count = total if count is None else min(int(count), total)
         for k in range(count):
             rates = accumulate(stream, window, start=start + k * window, count=1)[0]
-            clean = bayer_mosaic(self(bayer_planes(rates), mode))
+            clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window))
             yield k, (demosaic_bilinear(clean, stream.cfa) if stream.cfa else clean)

@@ -8,14 +8,19 @@ One step:
    ``[window_min, window_max]``, so that each octave of ``W`` is drawn equally often — short
    windows, where noise is worst, are not swamped by long ones), a start plane, a crop of
    ``2·patch × 2·patch`` pixels at an even offset;
-2. Eq. 4: count the crop's spikes over the window and divide by ``W`` (firing rates), split
-   the mosaic into its four 2×2 phases (the Bayer planes; for a monochrome stream, four planes
-   of genuine sensor noise), each a one-channel training image; random flips and 90° turns;
+2. Eq. 4: count the crop's spikes over the window (``input_domain="count"``, the default: the
+   network sees spike counts ``n = I·W``, whose noise — about ±1 spike of quantisation plus
+   the spurious spikes — hardly depends on ``W``, so one network serves every exposure; see
+   :class:`~spikeref.denoise.denoiser.Denoiser`) or divide by ``W`` (``"rate"``: Eq. 4's
+   ``I`` as printed, which hides the noise level from the network), split the mosaic into its
+   four 2×2 phases (the Bayer planes; for a monochrome stream, four planes of genuine sensor
+   noise), each a one-channel training image; random flips and 90° turns;
 3. Eq. 10–11: the masked volume Ω (16 masks, hidden pixels filled by the weighted mean of
    their 8 neighbours), the network on every masked image, mask-aware averaging Φ → ``D(I)``;
    the network on the visible image → ``f(I)`` (without gradient: the stop-gradient of Eq. 12);
 4. Eq. 12: ``mean((D + λ f − (λ+1) I)²) + η mean((D − I)²)``, ``η = 1``, ``λ`` rising linearly
-   from 2 to 20 over the run; Adam, learning rate on a cosine from ``lr`` to ``lr/100``.
+   from 2 to 20 over the run (on counts, each image's terms are divided by its ``W``); Adam,
+   learning rate on a cosine from ``lr`` to ``lr/100``.
 
 A checkpoint (model, optimiser, step, random state, loss log) is written atomically every
 ``checkpoint_every`` steps and at the end; :func:`train` given ``resume=True`` continues from it
@@ -40,12 +45,15 @@ from spikeref.denoise.revisible import lambda_schedule, revisible_loss_torch
 from spikeref.denoise.torch_unet import TorchUNet, to_numpy_unet
 from spikeref.denoise.unet import UNetSpec
 
-__all__ = ["TrainConfig", "CropSampler", "masked_volume_torch", "blind_and_visible", "train"]
+#: What the network can be trained on (:attr:`TrainConfig.input_domain`).
+INPUT_DOMAINS = ("count", "rate")
+
+__all__ = ["TrainConfig", "INPUT_DOMAINS", "CropSampler", "masked_volume_torch", "blind_and_visible", "train"]
 
 
 @dataclass(frozen=True)
 class TrainConfig:
-    """Hyper-parameters of a training run (defaults: the bundled weights' run, see docs/results.md).
+    """Hyper-parameters of a training run (the bundled weights' values: their metadata and docs/results.md).
 
     Parameters
     ----------
@@ -66,6 +74,13 @@ class TrainConfig:
         ``λ`` schedule and ``η`` of Eq. 12 (2 → 20, 1).
     cell : int
         Blind-spot cell ``h_s = w_s`` (4 → 16 masks).
+    input_domain : {"count", "rate"}
+        What the network sees: spike counts ``I·W`` (default) or firing rates ``I`` (Eq. 4).
+        Interpretation (the paper is silent): with rates, the noise level falls as ``1/W`` and a
+        network trained over W = 5…200 cannot tell a long clean window from a short noisy one —
+        it over-smooths long windows (measured: −1.4 dB against the plain TFP at W = 200, see
+        ``docs/results.md``).  Counts keep the noise level about constant; the
+        :class:`~spikeref.denoise.denoiser.Denoiser` multiplies by the exposure and divides back.
     checkpoint_every : int
         Steps between checkpoints.
     seed : int
@@ -84,6 +99,7 @@ class TrainConfig:
     lam_end: float = 20.0
     eta: float = 1.0
     cell: int = 4
+    input_domain: str = "count"
     checkpoint_every: int = 500
     seed: int = 0
 
@@ -93,6 +109,8 @@ class TrainConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ValueError(f"{name} must be a positive integer; got {v!r}")
+        if self.input_domain not in INPUT_DOMAINS:
+            raise ValueError(f"input_domain must be one of {', '.join(INPUT_DOMAINS)}; got {self.input_domain!r}")
         if self.window_max < self.window_min:
             raise ValueError(f"window_max ({self.window_max}) must be ≥ window_min ({self.window_min})")
         if self.patch % (2**self.depth):
@@ -121,9 +139,14 @@ class CropSampler:
         See :class:`TrainConfig`.
     device : torch.device
         Where the spike bits are unpacked and counted.
+    domain : {"count", "rate"}
+        Images of spike counts ``I·W`` or of firing rates ``I`` (:attr:`TrainConfig.input_domain`).
     """
 
-    def __init__(self, streams, patch: int, window_min: int, window_max: int, device="cpu"):
+    def __init__(self, streams, patch: int, window_min: int, window_max: int, device="cpu", domain="rate"):
+        if domain not in INPUT_DOMAINS:
+            raise ValueError(f"domain must be one of {', '.join(INPUT_DOMAINS)}; got {domain!r}")
+        self.domain = domain
         if not streams:
             raise ValueError("no training streams given")
         self.streams = list(streams)
@@ -164,24 +187,34 @@ class CropSampler:
         idx = starts[:, None] + torch.arange(s, device=self.device)[None, :]
         return counts[idx].flip(0)  # stored order is bottom-up
 
-    def sample(self, rng: np.random.Generator, batch: int) -> torch.Tensor:
-        """``(4·batch, 1, patch, patch) float32`` firing-rate images (Eq. 4, per 2×2 phase), augmented."""
+    def sample(self, rng: np.random.Generator, batch: int, with_windows: bool = False):
+        """``(4·batch, 1, patch, patch) float32`` images (Eq. 4, per 2×2 phase), augmented.
+
+        Firing rates ``count / W``, or the counts themselves when ``domain == "count"``.  With
+        ``with_windows``, also the window length ``W`` of each image, ``(4·batch,) float32``.
+        """
         s = 2 * self.patch
-        out = []
+        out, windows = [], []
         for _ in range(batch):
             stream = self.streams[int(rng.integers(len(self.streams)))]
             w = self._window(rng, stream)
             t = int(rng.integers(0, len(stream) - w + 1))
             y0 = 2 * int(rng.integers(0, (stream.height - s) // 2 + 1))
             x0 = 2 * int(rng.integers(0, (stream.width - s) // 2 + 1))
-            rates = self._counts(stream, t, w, y0, x0).to(torch.float32) / w
-            planes = rates.reshape(self.patch, 2, self.patch, 2).permute(1, 3, 0, 2).reshape(4, self.patch, self.patch)
+            image = self._counts(stream, t, w, y0, x0).to(torch.float32)
+            if self.domain == "rate":
+                image = image / w
+            planes = image.reshape(self.patch, 2, self.patch, 2).permute(1, 3, 0, 2).reshape(4, self.patch, self.patch)
             for plane in planes:
                 k = int(rng.integers(4))
                 if rng.random() < 0.5:
                     plane = plane.flip(-1)
                 out.append(torch.rot90(plane, k, (0, 1)))
-        return torch.stack(out)[:, None].contiguous()
+            windows += [float(w)] * 4
+        images = torch.stack(out)[:, None].contiguous()
+        if with_windows:
+            return images, torch.tensor(windows, dtype=torch.float32, device=self.device)
+        return images
 
 
 # ----------------------------------------------------------------------------- Eq. 10–11 in torch
@@ -231,7 +264,8 @@ def _save_checkpoint(path: Path, state: dict) -> None:
 
 
 def train(streams, output, config: TrainConfig | None = None, checkpoint=None, resume: bool = False,
-          device: str | None = None, progress: bool = True, describe: dict | None = None):
+          device: str | None = None, progress: bool = True, describe: dict | None = None,
+          stop_after: int | None = None):
     """Train the denoiser on unlabeled streams and write NumPy weights to ``output`` (``.npz``).
 
     Parameters
@@ -249,6 +283,11 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         ``"cuda"``, ``"cpu"``…; default CUDA when available.
     describe : dict, optional
         Extra facts to store in the weights' metadata (the command line, the data files).
+    stop_after : int, optional
+        Stop after this many steps of the ``config.steps``-step schedule (learning rate and ``λ``
+        follow the full schedule) and export what is there; with ``resume`` from a checkpoint
+        at or past it, export the checkpoint's network without training.  The weights'
+        metadata records ``steps_run``.
 
     Returns
     -------
@@ -266,7 +305,7 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         torch.backends.cuda.matmul.allow_tf32 = True
         torch.backends.cudnn.allow_tf32 = True
         torch.backends.cudnn.benchmark = True
-    sampler = CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, device=dev)
+    sampler = CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, device=dev, domain=cfg.input_domain)
 
     torch.manual_seed(cfg.seed)
     model = TorchUNet(cfg.spec).to(dev, memory_format=torch.channels_last)
@@ -287,15 +326,25 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         return {"config": asdict(cfg), "model": model.state_dict(), "optimizer": opt.state_dict(),
                 "rng": rng.bit_generator.state, "step": step, "losses": losses, "seconds": seconds}
 
-    bar = tqdm(total=cfg.steps, initial=step, desc="training", unit="step", disable=not progress or None)
+    last = cfg.steps if stop_after is None else min(cfg.steps, int(stop_after))
+    if last < 1:
+        raise ValueError(f"stop_after must be a positive number of steps; got {stop_after!r}")
+    if step > last:
+        raise ValueError(f"{checkpoint}: the checkpoint is at step {step}, past stop_after = {last}")
+    bar = tqdm(total=last, initial=min(step, last), desc="training", unit="step", disable=not progress or None)
     t_last = time.perf_counter()
     model.train()
-    while step < cfg.steps:
+    while step < last:
         lam = lambda_schedule(step / max(1, cfg.steps - 1), cfg.lam_start, cfg.lam_end)
         for group in opt.param_groups:
             group["lr"] = _learning_rate(cfg, step)
-        x = sampler.sample(rng, cfg.batch)
+        x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
         blind, visible = blind_and_visible(model, x, cfg.cell)
+        if cfg.input_domain == "count":
+            # Eq. 12 per image divided by W: count-domain errors grow with W, their noise does not;
+            # 1/W sits between the two so that no octave of W swamps the gradient
+            s = windows.rsqrt()[:, None, None, None]
+            blind, visible, x = blind * s, visible * s, x * s
         loss = revisible_loss_torch(blind, visible, x, lam, cfg.eta)
         opt.zero_grad(set_to_none=True)
         loss.backward()
@@ -308,17 +357,19 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         bar.update(1)
         if step % 20 == 0:
             bar.set_postfix(loss=f"{np.mean(losses[-20:]):.3e}", lam=f"{lam:.1f}")
-        if step % cfg.checkpoint_every == 0 or step == cfg.steps:
+        if step % cfg.checkpoint_every == 0 or step == last:
             _save_checkpoint(checkpoint, snapshot())
     bar.close()
 
-    tail = max(1, cfg.steps // 20)
+    tail = max(1, step // 20)
     per_percent = [float(np.mean(c)) for c in np.array_split(np.asarray(losses), min(100, len(losses)))]
     summary = {"steps": step, "final_loss": float(np.mean(losses[-tail:])), "seconds": round(seconds, 1),
                "losses": per_percent}
     meta = {
         "method": "Blind2Unblind re-visible loss (Eq. 12), blind-spot volume (Eq. 10-11)",
         "config": asdict(cfg),
+        "input_domain": cfg.input_domain,
+        "steps_run": step,
         "final_loss": summary["final_loss"],
         "loss_per_percent": per_percent,
         "train_seconds": summary["seconds"],
