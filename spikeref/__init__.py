@@ -44,6 +44,11 @@ _EXPORTS = {
     "ReconstructParams": "spikeref.pipeline",
     "Reconstructor": "spikeref.pipeline",
     "reconstruct": "spikeref.pipeline",
+    "psnr": "spikeref.metrics",
+    "ssim": "spikeref.metrics",
+    "pu21_encode": "spikeref.metrics",
+    "pu21_psnr": "spikeref.metrics",
+    "pu21_ssim": "spikeref.metrics",
 }
 
 __all__ = list(_EXPORTS)

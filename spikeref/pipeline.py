@@ -269,6 +269,7 @@ class _State:
 
             with self.timed("accumulate"):
                 c = window_counts(self.stream, self.p.window, start=k * self.p.window, count=1)[0]
+                self.stream.release(k * self.p.window, self.p.window)
                 self.counts[k] = bayer_planes(c)
         return self.counts[k]
 

@@ -162,6 +162,34 @@ class SpikeStream:
             self.height, self.width, self.file_width, self.col_offset,
         )
 
+    def release(self, start: int, length: int) -> None:
+        """Drop the memory-mapped pages of planes ``[start, start + length)`` from this process.
+
+        Pages of a memory-mapped ``.dat`` that were read stay in the process's resident set
+        (RSS) until the kernel needs the memory, so RSS would grow with the part of the
+        recording already read.  Streaming readers call this on planes they are done with
+        (``madvise(MADV_DONTNEED)``; the file is read-only, so a later read simply maps the
+        pages again from the page cache).  A no-op for in-memory streams and where the
+        platform has no ``madvise``.
+        """
+        self._check_range(start, length)
+        packed = self._packed
+        mm = getattr(packed, "_mmap", None)
+        if mm is None or not hasattr(mm, "madvise"):
+            return
+        import mmap
+
+        base = np.frombuffer(mm, dtype=np.uint8).ctypes.data
+        lo = packed[start:].ctypes.data - base
+        hi = lo + length * packed.shape[1]
+        page = mmap.PAGESIZE
+        lo, hi = (lo // page) * page, min(-(-hi // page) * page, len(mm))
+        if hi > lo:
+            try:
+                mm.madvise(mmap.MADV_DONTNEED, lo, hi - lo)
+            except (OSError, ValueError):  # pragma: no cover - platform without the advice
+                pass
+
     def windows(self, length: int, start: int = 0) -> Iterator[np.ndarray]:
         """Iterate over consecutive whole windows ``[start + kW, start + (k+1)W)``."""
         if not isinstance(length, (int, np.integer)) or length < 1:

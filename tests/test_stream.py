@@ -42,3 +42,27 @@ def test_constructor_errors():
         SpikeStream.from_packed(np.zeros((3, 5), np.uint8), 4, 8)
     with pytest.raises(TypeError, match="windows"):
         iter(SpikeStream.from_array(np.zeros((1, 2, 2), np.uint8)))
+
+
+def _rss_file_kib() -> int:
+    with open("/proc/self/status") as f:
+        status = dict(line.split(":", 1) for line in f)
+    return int(status["RssFile"].split()[0])
+
+
+@pytest.mark.skipif(not __import__("os").path.exists("/proc/self/status"), reason="needs Linux /proc")
+def test_release_drops_mapped_pages_and_keeps_data(tmp_path, rng):
+    from spikeref.io.dat import read_dat, write_dat
+
+    spikes = (rng.random((2048, 64, 128)) < 0.3).astype(np.uint8)  # 2048 planes × 1 KiB = 2 MiB
+    write_dat(tmp_path / "x.dat", spikes)
+    stream = read_dat(tmp_path / "x.dat", height=64, width=128)
+    assert int(stream.window(0, 2048).sum()) == int(spikes.sum())  # every page now mapped
+    before = _rss_file_kib()
+    stream.release(0, 2048)
+    assert before - _rss_file_kib() >= 1024  # at least half of the 2 MiB left the resident set
+    stream.release(3, 5)  # unaligned ranges are fine
+    np.testing.assert_array_equal(stream.window(1000, 48), spikes[1000:1048])
+    with pytest.raises(ValueError, match="outside the stream"):
+        stream.release(2040, 9)
+    SpikeStream.from_array(spikes[:4]).release(0, 4)  # in memory: nothing to drop

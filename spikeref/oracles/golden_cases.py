@@ -24,6 +24,8 @@ from spikeref.oracles import blindspot as o_bs
 from spikeref.oracles import camera as o_cam
 from spikeref.oracles import dat as o_dat
 from spikeref.oracles import effects as o_fx
+from spikeref.oracles import metrics as o_met
+from spikeref import metrics as _met
 from spikeref.denoise import blindspot as _bs
 from spikeref.simulate import camera as _cam
 from spikeref.simulate import effects as _fx
@@ -208,6 +210,20 @@ def _fire(inp):
     return {"spikes": _cam.fire(inp["charge"], float(inp["threshold"]), state)}
 
 
+def _inputs_metrics():
+    rng = np.random.default_rng(11)
+    ref = rng.random((16, 19, 3))
+    est = np.clip(ref + 0.1 * rng.standard_normal(ref.shape), 0, None)
+    return {"reference": ref, "estimate": est, "data_range": np.float64(1.0),
+            "luminance": np.array([0.0, 0.001, 0.005, 0.1, 1.0, 100.0, 4000.0, 10000.0, 2e4])}
+
+
+def _metrics_out(psnr, ssim, pu21, i):
+    ref, est, r = i["reference"], i["estimate"], float(i["data_range"])
+    return {"psnr": np.float64(psnr(ref, est, r)), "ssim_rgb": np.float64(ssim(ref, est, r)),
+            "ssim_gray": np.float64(ssim(ref[..., 1], est[..., 1], r)), "pu21": pu21(i["luminance"])}
+
+
 CASES: list[GoldenCase] = [
     GoldenCase(
         "dat_layout", "§3 storage (DESIGN §3)", "spikeref.io.dat.pack_planes / unpack_planes",
@@ -352,5 +368,17 @@ CASES: list[GoldenCase] = [
         rtol=1e-5, atol=1e-5,
         params={"levels": 4, "tile_by_step": [16, 16, 8], "coarse_tile": 8, "search_radius": [1, 4, 4, 4],
                 "subpixel": True, "pyramid_kernel": [1, 4, 6, 4, 1]},
+    ),
+    GoldenCase(
+        "metrics_psnr_ssim_pu21", "metrics (Wang et al. 2004 SSIM; Mantiuk & Azimi 2021 PU21)",
+        "spikeref.metrics.psnr / ssim / pu21_encode",
+        "spikeref.oracles.metrics.psnr_oracle / ssim_oracle / pu21_oracle",
+        "PSNR and SSIM (11-tap Gaussian σ=1.5, K1=0.01, K2=0.03, population moments, valid region, mean over "
+        "channels) of a noisy copy of a random 16×19 RGB image and of its green channel; PU21 banding_glare of "
+        "luminances below, inside and above [0.005, 10000] cd/m².",
+        _inputs_metrics,
+        lambda i: _metrics_out(o_met.psnr_oracle, o_met.ssim_oracle, o_met.pu21_oracle, i),
+        lambda i: _metrics_out(_met.psnr, _met.ssim, _met.pu21_encode, i),
+        rtol=1e-10, atol=1e-12,
     ),
 ]
