@@ -162,6 +162,24 @@ class SpikeStream:
             self.height, self.width, self.file_width, self.col_offset,
         )
 
+    def slice(self, start: int, stop: int | None = None) -> "SpikeStream":
+        """The planes ``[start, stop)`` as a stream of their own (a view: nothing is copied or read).
+
+        Plane ``start`` becomes plane 0 of the new stream, so its windows ``[kW, (k+1)W)``
+        are planes ``[start + kW, start + (k+1)W)`` here: this shifts the window grid.
+        """
+        stop = len(self) if stop is None else stop
+        if not isinstance(stop, (int, np.integer)):
+            raise TypeError(f"stop must be an integer plane index; got {stop!r}")
+        self._check_range(start, int(stop) - int(start) if stop > start else 0)
+        data = self._array if self._array is not None else self._packed
+        return SpikeStream(
+            array=data[start:stop] if self._array is not None else None,
+            packed=data[start:stop] if self._packed is not None else None,
+            height=self.height, width=self.width, file_width=self.file_width, col_offset=self.col_offset,
+            cfa=self.cfa, rate_hz=self.rate_hz, path=self.path,
+        )
+
     def release(self, start: int, length: int) -> None:
         """Drop the memory-mapped pages of planes ``[start, start + length)`` from this process.
 

@@ -66,3 +66,17 @@ def test_release_drops_mapped_pages_and_keeps_data(tmp_path, rng):
     with pytest.raises(ValueError, match="outside the stream"):
         stream.release(2040, 9)
     SpikeStream.from_array(spikes[:4]).release(0, 4)  # in memory: nothing to drop
+
+
+def test_slice_is_a_view_with_a_shifted_window_grid(rng):
+    spikes = (rng.random((40, 4, 6)) < 0.4).astype(np.uint8)
+    packed = SpikeStream.from_packed(pack_planes(spikes), height=4, width=6, cfa="RGGB")
+    for stream in (SpikeStream.from_array(spikes, cfa="RGGB"), packed):
+        part = stream.slice(5, 35)
+        assert len(part) == 30 and part.cfa == "RGGB" and part.is_packed == stream.is_packed
+        np.testing.assert_array_equal(part.window(10, 10), spikes[15:25])
+        assert len(stream.slice(7)) == 33
+        with pytest.raises(ValueError, match="outside the stream"):
+            stream.slice(30, 41)
+        with pytest.raises(ValueError, match="at least 1 plane"):
+            stream.slice(20, 20)

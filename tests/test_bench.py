@@ -1,0 +1,183 @@
+"""`spikeref bench`: grids, scored instants, timing protocol, Pareto front, outputs and bad input."""
+
+import csv
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from spikeref.bench import (FULL_GRID, QUICK_GRID, Setting, bench_scenes, grid_settings, parse_grid, pareto_front,
+                            run_setting, score_centres)
+from spikeref.bench.report import contact_sheet, summarize
+from spikeref.cli import main
+from spikeref.stream import SpikeStream
+
+
+def test_full_and_quick_grids():
+    full = grid_settings(FULL_GRID)
+    names = [s.name for s in full]
+    assert len(names) == len(set(names)) == 4 + 26 + 8  # baselines, visible W×K×L×align (L=0 once per W), mixed+blind
+    assert "ours visible W=20 K=5 L=3 no-align" in names and "ours blind W=10 K=3 L=3" in names
+    assert "ours blind W=20 K=3 L=3" not in names  # costly modes only along L at the first W, K, align
+    quick = [s.name for s in grid_settings(QUICK_GRID)]
+    assert quick == ["TFP W=10", "TFP W=100", "TFI", "TFSTP", "ours visible W=10 L=0", "ours visible W=10 K=3 L=1",
+                     "ours visible W=10 K=3 L=2", "ours visible W=10 K=3 L=3", "ours visible W=10 K=5 L=3",
+                     "ours visible W=20 K=3 L=3", "ours visible W=10 K=3 L=3 no-align", "ours mixed W=10 L=0",
+                     "ours blind W=10 L=0"]
+    only = grid_settings(parse_grid(methods=["tfi", "ours"], modes=["blind"], L=[0, 2]))
+    assert [s.name for s in only] == ["TFI", "ours blind W=10 L=0", "ours blind W=10 K=3 L=2"]
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"methods": ["tfp10", "tfp50"]}, "unknown methods tfp50; allowed: tfp10, tfp100, tfi, tfstp, ours"),
+    ({"modes": ["fast"]}, "unknown modes fast"),
+    ({"W": [15]}, "unknown W 15; allowed: 10, 20"),
+    ({"K": [4]}, "unknown K 4"),
+    ({"L": [4]}, "unknown L 4"),
+    ({"align": ["maybe"]}, "unknown align maybe"),
+    ({"frames": 0}, "frames must be an integer in 1…8"),
+    ({"methods": ["tfi"], "modes": ["visible"]}, "leaves out 'ours'"),
+    ({"W": [10, 10]}, "lists a value twice"),
+])
+def test_bad_grid_options(kw, match):
+    with pytest.raises(ValueError, match=match):
+        parse_grid(**kw)
+
+
+def test_scenes_are_versioned_and_named():
+    keys = [s.key for s in bench_scenes()]
+    assert keys == ["static", "translation", "fan", "hdr", "low_light"]
+    for s in bench_scenes():
+        assert "set version 1" in s.path.read_text() and s.scene.effects  # realistic noise in every scene
+    with pytest.raises(ValueError, match="unknown scene moon; allowed: static, translation"):
+        bench_scenes(["moon"])
+
+
+def test_score_centres_sit_on_both_window_grids():
+    c = score_centres(800, 4)
+    assert c == [375, 395, 415, 435]  # ≡ 5 (mod 10), 20 apart, around plane 400
+    assert score_centres(800, 1) == [405]
+
+
+def test_pareto_front_by_hand():
+    cost = [1.0, 2.0, 3.0, 2.0, 0.5]
+    score = [10.0, 12.0, 11.0, 12.0, 9.0]
+    # (3, 11) is dominated by (2, 12); the tie (2, 12) twice stays; (0.5, 9) is the fastest
+    np.testing.assert_array_equal(pareto_front(cost, score), [True, True, False, True, True])
+    with pytest.raises(ValueError, match="1-D of equal length"):
+        pareto_front([1.0], [1.0, 2.0])
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.tuples(st.floats(0.001, 100), st.floats(-10, 50)), min_size=1, max_size=30))
+def test_pareto_front_properties(points):
+    cost, score = np.array(points).T
+    front = pareto_front(cost, score)
+    assert front.any()
+
+    def dominates(i, j):
+        return cost[i] <= cost[j] and score[i] >= score[j] and (cost[i] < cost[j] or score[i] > score[j])
+
+    n = len(points)
+    for j in range(n):
+        if front[j]:
+            assert not any(dominates(i, j) for i in range(n))
+        else:
+            assert any(dominates(i, j) and front[i] for i in range(n))
+
+
+def _stream(rng, planes=300):
+    return SpikeStream.from_array((rng.random((planes, 32, 32)) < 0.3).astype(np.uint8), cfa="RGGB")
+
+
+def test_every_method_is_scored_at_the_same_instant(rng):
+    from spikeref.accumulate import accumulate
+    from spikeref.bayer import demosaic_bilinear
+
+    stream = _stream(rng)
+    centres = [135, 155]
+    for w in (10, 100):
+        frames, timing = run_setting(Setting("tfp", w), stream, centres)
+        for t, f in zip(centres, frames, strict=True):
+            np.testing.assert_array_equal(f, demosaic_bilinear(accumulate(stream, w, start=t - w // 2, count=1)[0],
+                                                               "RGGB"))
+        assert timing["seconds_per_frame"] > 0
+    # the method with W = 20 and L = 0 and an identity denoiser is the TFP of the 20 planes centred on t:
+    # its window grid is shifted by 5 planes so that a window is centred there
+    for w in (10, 20):
+        frames, timing = run_setting(Setting("ours", w, L=0), stream, centres, denoiser=lambda p: p)
+        for t, f in zip(centres, frames, strict=True):
+            np.testing.assert_allclose(f, demosaic_bilinear(accumulate(stream, w, start=t - w // 2, count=1)[0],
+                                                            "RGGB"), atol=1e-6)
+        assert timing["warmup_s"] > 0 and timing["seconds_per_frame"] > 0
+    # TFSTP run as a 2000-FPS video from plane 0 equals one call at the instants
+    from spikeref.baselines import tfstp
+
+    frames, _ = run_setting(Setting("tfstp", 0), stream, centres)
+    np.testing.assert_allclose(frames[1], demosaic_bilinear(tfstp(stream, times=centres)[1], "RGGB"), rtol=1e-6)
+
+
+def test_summary_and_contact_sheet():
+    rows = [{"setting": n, "method": m, "W": 10, "K": "", "L": "", "mode": "", "align": "", "scene": s,
+             "psnr": p, "ssim": 0.5, "pu21_psnr": p, "pu21_ssim": 0.5, "seconds_per_frame": c, "warmup_s": 0.0}
+            for n, m, p, c in (("A", "tfp", 20.0, 1.0), ("B", "ours", 25.0, 2.0), ("C", "ours", 24.0, 3.0))
+            for s in ("x", "y")]
+    summary = summarize(rows)
+    assert [r["pareto_psnr"] for r in summary] == [True, True, False]
+    img = {"reference": np.full((12, 16, 3), 0.5, np.float32), "A": np.zeros((12, 16, 3), np.float32)}
+    sheet = contact_sheet(img, columns=6, gap=4)
+    assert sheet.shape == (12, 36, 3) and sheet.dtype == np.uint8
+    assert sheet[:, :16].min() > 200 and sheet[:, 20:].max() == 0  # one exposure: the reference maps near white
+
+
+def test_cli_bench_small_run_writes_every_output(tmp_path, capsys):
+    out = tmp_path / "bench"
+    rc = main(["bench", "--methods", "tfp10,tfp100,ours", "-L", "0", "-W", "10", "--modes", "visible",
+               "--scenes", "static,hdr", "--frames", "1", "--out", str(out), "--no-progress"])
+    assert rc == 0
+    rows = list(csv.DictReader((out / "results.csv").open()))
+    assert [(r["scene"], r["setting"]) for r in rows] == [
+        (s, n) for s in ("static", "hdr") for n in ("TFP W=10", "TFP W=100", "ours visible W=10 L=0")]
+    for r in rows:
+        assert r["bench_version"] == "1" and float(r["seconds_per_frame"]) > 0
+        assert np.isfinite(float(r["psnr"])) and 0 < float(r["ssim"]) <= 1 and float(r["pu21_psnr"]) > 0
+    by = {(r["scene"], r["setting"]): float(r["psnr"]) for r in rows}
+    assert by[("static", "TFP W=100")] > by[("static", "TFP W=10")] + 5  # a static scene rewards long windows
+    md = (out / "results.md").read_text()
+    assert "| TFP W=100" in md and "vs TFP W=10:" in md
+    assert (out / "contact_sheet.png").stat().st_size > 0
+    assert "| setting |" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--methods", "tfp10,wavelets"], "unknown methods wavelets"),
+    (["--scenes", "moon"], "unknown scene moon"),
+    (["-W", "30"], "unknown W 30"),
+    (["--sheet-scene", "hdr", "--scenes", "static"], "--sheet-scene 'hdr' is not among"),
+])
+def test_cli_bench_bad_input_fails_before_any_work(tmp_path, capsys, argv, match):
+    out = tmp_path / "never"
+    assert main(["bench", *argv, "--out", str(out), "--no-progress"]) == 2
+    assert match in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_cli_bench_unwritable_output(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    assert main(["bench", "--methods", "tfi", "--out", str(blocker / "sub"), "--no-progress"]) == 2
+    assert "cannot write there" in capsys.readouterr().err
+
+
+def test_pareto_plot_is_a_png(tmp_path):
+    pytest.importorskip("matplotlib")
+    from spikeref.bench.report import plot_pareto
+
+    rows = [{"setting": n, "method": m, "W": 10, "K": 3, "L": 1, "mode": mode, "align": a, "scene": "x",
+             "psnr": p, "ssim": 0.5, "pu21_psnr": p, "pu21_ssim": 0.5, "seconds_per_frame": c, "warmup_s": 0.0}
+            for n, m, mode, a, p, c in (("TFP W=10", "tfp", "", "", 20.0, 0.001),
+                                        ("ours", "ours", "visible", "on", 25.0, 0.2),
+                                        ("ours b", "ours", "blind", "off", 24.0, 3.0))]
+    assert plot_pareto(summarize(rows), tmp_path / "p.png")
+    assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
