@@ -150,6 +150,8 @@ def cmd_reconstruct(args) -> int:
         raise CliError("--resume needs --exr-dir (the frames already written are found there)")
     params = ReconstructParams(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align,
                                align_params=AlignParams())
+    if args.workers is not None or args.scheduler is not None:
+        return _reconstruct_on_dask(args, params, video, exr_dir)
     stream = open_input(args)
     a, b = parse_frames_option(args.frames)
     den = Denoiser.load(args.weights, mode=args.mode)
@@ -189,6 +191,48 @@ def cmd_reconstruct(args) -> int:
     for path in (video, exr_dir):
         if path is not None:
             print(f"wrote {path}", file=sys.stderr)
+    return 0
+
+
+def _reconstruct_on_dask(args, params, video, exr_dir) -> int:
+    import time
+
+    from spikeref.distributed import assemble_video, reconstruct_distributed
+
+    if args.workers is not None and args.scheduler is not None:
+        raise CliError("give --workers (a local cluster) or --scheduler (an existing one), not both")
+    if args.workers is not None and args.workers < 1:
+        raise CliError(f"--workers must be at least 1; got {args.workers}")
+    if exr_dir is None:  # workers write EXR frames; the video is assembled from them
+        exr_dir = video.with_name(video.stem + "_exr")
+    stream = open_input(args)
+    a, b = parse_frames_option(args.frames)
+    from spikeref.pipeline import frame_range
+
+    avail = frame_range(len(stream), params.window, params.K, params.L)
+    frames = range(avail.start if a is None else a, avail.stop if b is None else b)
+    open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
+                   "rate_hz": args.rate_hz}
+    where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"
+    print(f"{stream.path.name}: frames {frames.start}:{frames.stop} in chunks of {args.chunk_frames} on {where}"
+          f" → {exr_dir}", file=sys.stderr)
+    t0 = time.perf_counter()
+    summaries = reconstruct_distributed(stream.path, exr_dir, params, open_kwargs=open_kwargs, weights=args.weights,
+                                        frames=frames, chunk_frames=args.chunk_frames, workers=args.workers,
+                                        scheduler=args.scheduler, resume=args.resume, half=args.half)
+    wall = time.perf_counter() - t0
+    made = sum(s["written"] for s in summaries)
+    if summaries:
+        busy = sum(s["seconds"] for s in summaries)
+        peak = max(s["peak_rss_mib"] for s in summaries)
+        print(f"{made} frames written by {len(summaries)} chunks in {wall:.1f} s ({made / wall:.2f} frames/s); "
+              f"{busy:.1f} s inside the tasks; peak memory of a worker {peak:.0f} MiB", file=sys.stderr)
+    else:
+        print("every frame was already on disk (--resume)", file=sys.stderr)
+    if video is not None:
+        assemble_video(exr_dir, frames, video, fps=args.fps)
+        print(f"wrote {video}", file=sys.stderr)
+    print(f"wrote {exr_dir}", file=sys.stderr)
     return 0
 
 
@@ -426,6 +470,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip frames whose EXR file exists in --exr-dir (an interrupted run loses nothing)")
     p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
     p.add_argument("--half", action="store_true", help="write float16 EXR (default float32)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="reconstruct in chunks on a local Dask cluster of this many worker processes "
+                        "(needs spikeref[dask]); EXR frames are written by the workers, the video assembled after")
+    p.add_argument("--scheduler", default=None,
+                   help="address of an existing Dask scheduler (e.g. tcp://host:8786) instead of --workers; "
+                        "input and output paths must be visible to every worker")
+    p.add_argument("--chunk-frames", type=int, default=64,
+                   help="output frames per Dask task; each task re-reads (K-1)·L windows of overlap")
     p.set_defaults(func=cmd_reconstruct)
 
     p = sub.add_parser("bench", help="accuracy against seconds per frame of every method and setting "

@@ -1,0 +1,153 @@
+"""Chunked reconstruction on Dask: chunk plan, bit-identical frames, resume after a kill, errors naming the chunk."""
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from spikeref.cli import main
+from spikeref.distributed import Chunk, ChunkError, plan_chunks, reconstruct_chunk, reconstruct_distributed
+from spikeref.io.dat import write_dat
+from spikeref.io.exr import read_exr
+from spikeref.pipeline import ReconstructParams, frame_range
+from spikeref.render import exr_name
+
+H, W_PX, PLANES = 128, 128, 170  # W=10, K=3, L=3: frames 3 … 13 (11 frames)
+ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    rng = np.random.default_rng(5)
+    base = rng.random((H, W_PX)) * 0.5 + 0.05
+    shifts = [np.roll(base, t // 20, axis=1) for t in range(PLANES)]
+    spikes = (rng.random((PLANES, H, W_PX)) < np.stack(shifts)).astype(np.uint8)
+    folder = tmp_path_factory.mktemp("rec")
+    path = folder / "moving.dat"
+    write_dat(path, spikes)
+    (folder / "moving.json").write_text('{"height": 128, "width": 128, "cfa": "RGGB"}')
+    # The single-process reference runs with one BLAS thread, as Dask's workers do by default
+    # (distributed.nanny.pre-spawn-environ): OpenBLAS sums in another order with 2 threads, which
+    # moves float32 results by ~1 ulp (see docs/distributed.md).
+    single = folder / "single_exr"
+    env = {**os.environ, **ONE_THREAD}
+    subprocess.run([sys.executable, "-m", "spikeref.cli", "reconstruct", str(path), "--exr-dir", str(single)],
+                   check=True, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return path, single
+
+
+def _frames(folder):
+    return {p.name: read_exr(p) for p in sorted(Path(folder).glob("frame_*.exr"))}
+
+
+def _assert_identical(folder, reference, rtol=0.0):
+    got, want = _frames(folder), _frames(reference)
+    assert sorted(got) == sorted(want) and len(want) == len(frame_range(PLANES))
+    for name in want:
+        if rtol:
+            np.testing.assert_allclose(got[name], want[name], rtol=rtol, atol=1e-7, err_msg=name)
+        else:
+            np.testing.assert_array_equal(got[name], want[name], err_msg=name)
+
+
+def test_plan_covers_the_frames_with_the_support_overlap():
+    p = ReconstructParams(window=10, K=3, L=3)
+    chunks = plan_chunks(range(3, 14), p, 4)
+    assert [(c.start, c.stop) for c in chunks] == [(3, 7), (7, 11), (11, 14)]
+    assert chunks[0] == Chunk(0, 3, 7, 0, 100)  # windows 3−3 … 6+3
+    overlap = chunks[0].stop_plane - chunks[1].first_plane
+    assert overlap == ((p.K - 1) * p.L + 1) * p.window - p.window
+    with pytest.raises(ValueError, match="chunk_frames must be a positive integer"):
+        plan_chunks(range(3, 14), p, 0)
+
+
+def test_chunks_run_anywhere_equal_one_run(recording, tmp_path):
+    path, single = recording
+    p = ReconstructParams()
+    whole = plan_chunks(frame_range(PLANES), p, 100)
+    assert len(whole) == 1
+    reconstruct_chunk(str(path), {}, p, whole[0], str(tmp_path / "one"))
+    for c in plan_chunks(frame_range(PLANES), p, 4):  # in this process, no scheduler
+        s = reconstruct_chunk(str(path), {}, p, c, str(tmp_path / "chunks"))
+        assert s["written"] == c.stop - c.start and s["planes_read"] == c.stop_plane - c.first_plane
+    _assert_identical(tmp_path / "chunks", tmp_path / "one")  # same process, same BLAS threads: bit for bit
+    _assert_identical(tmp_path / "chunks", single, rtol=1e-5)  # another BLAS thread count: float32 rounding
+
+
+@pytest.fixture(scope="module")
+def client():
+    distributed = pytest.importorskip("dask.distributed")
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0")
+    c = distributed.Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def test_two_worker_processes_write_bit_identical_frames(recording, client, tmp_path):
+    path, single = recording
+    summaries = reconstruct_distributed(path, tmp_path, client=client, chunk_frames=3, progress=False)
+    assert [s["chunk"] for s in summaries] == [0, 1, 2, 3]
+    assert len({s["pid"] for s in summaries}) == 2  # both workers took chunks
+    assert all(s["pid"] != os.getpid() and s["peak_rss_mib"] > 0 for s in summaries)
+    _assert_identical(tmp_path, single)
+    # resume: every frame on disk → no chunk runs; one frame removed → only its chunk runs
+    assert reconstruct_distributed(path, tmp_path, client=client, chunk_frames=3, resume=True, progress=False) == []
+    (tmp_path / exr_name(8)).unlink()
+    again = reconstruct_distributed(path, tmp_path, client=client, chunk_frames=3, resume=True, progress=False)
+    assert [(s["chunk"], s["written"], s["skipped"]) for s in again] == [(1, 1, 2)]
+    _assert_identical(tmp_path, single)
+
+
+def test_worker_error_names_the_chunk(recording, client, tmp_path):
+    path, _ = recording
+    (tmp_path / exr_name(7)).mkdir()  # frame 7 cannot be written: a folder sits at its name
+    with pytest.raises(ChunkError, match=r"chunk 1 \(frames 6:9, planes 30:120\) failed on a worker"):
+        reconstruct_distributed(path, tmp_path, client=client, chunk_frames=3, progress=False)
+
+
+def test_killed_job_resumes_to_the_same_complete_set(recording, tmp_path):
+    pytest.importorskip("dask.distributed")
+    path, single = recording
+    out = tmp_path / "exr"
+    cmd = [sys.executable, "-m", "spikeref.cli", "reconstruct", str(path), "--exr-dir", str(out), "--workers", "2",
+           "--chunk-frames", "1"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+                            env={**os.environ, **ONE_THREAD})
+    deadline = time.time() + 120
+    while time.time() < deadline and not (out.is_dir() and any(out.glob("frame_*.exr"))):
+        time.sleep(0.2)
+    os.killpg(proc.pid, 9)  # the whole job: client, scheduler and workers
+    proc.wait()
+    first = sorted(p.name for p in out.glob("frame_*.exr"))
+    assert 0 < len(first) < len(frame_range(PLANES))  # killed midway
+    assert not list(out.glob(".*")) or all(p.suffix != ".exr" for p in out.glob(".*"))
+    subprocess.run(cmd + ["--resume"], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   env={**os.environ, **ONE_THREAD})
+    _assert_identical(out, single)
+
+
+def test_cli_workers_writes_video_and_frames(recording, tmp_path):
+    pytest.importorskip("dask.distributed")
+    path, single = recording
+    video = tmp_path / "out.mp4"
+    assert main(["reconstruct", str(path), "-o", str(video), "--workers", "1", "--chunk-frames", "6"]) == 0
+    _assert_identical(tmp_path / "out_exr", single)
+    assert video.stat().st_size > 0
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "not both"),
+    (["--workers", "0"], "--workers must be at least 1"),
+    (["--workers", "1", "--chunk-frames", "0"], "chunk_frames must be a positive integer"),
+    (["--workers", "1", "--frames", "0:5"], "outside this stream's frames 3:14"),
+])
+def test_cli_bad_distributed_options(recording, tmp_path, capsys, argv, match):
+    path, _ = recording
+    assert main(["reconstruct", str(path), "--exr-dir", str(tmp_path / "x"), *argv]) == 2
+    assert match in capsys.readouterr().err
+    assert not any((tmp_path / "x").glob("*.exr")) if (tmp_path / "x").exists() else True
