@@ -315,3 +315,8 @@ def accumulate(
 def accumulate_window(spikes, start: int, window: int, gains=None, cfa: str | None = None) -> np.ndarray:
     """Eq. 4 for one window ``[start, start + window)`` → ``(H, W) float32``."""
     return accumulate(spikes, window, start=start, count=1, gains=gains, cfa=cfa)[0]
+
+
+from spikeref._callable import make_module_callable  # noqa: E402
+
+make_module_callable(__name__, "accumulate")  # `sr.accumulate(...)` works whichever import came first

@@ -605,3 +605,8 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
     out = np.empty((2, h, w), np.float32)
     _flow_from_tiles(vectors, tile, out)
     return out
+
+
+from spikeref._callable import make_module_callable  # noqa: E402
+
+make_module_callable(__name__, "align")  # `sr.align(...)` works whichever import came first

@@ -411,3 +411,8 @@ def plot_noise_check(result: NoiseCheck, path) -> Path:
     ax.legend(fontsize=7, ncol=max(1, len(result.channels)))
     fig.tight_layout()
     return atomic_write(Path(path), lambda tmp: fig.savefig(tmp, format="png"))
+
+
+from spikeref._callable import make_module_callable  # noqa: E402
+
+make_module_callable(__name__, "noise_check")  # `sr.noise_check(...)` works whichever import came first

@@ -59,7 +59,8 @@ def check_spikes(spikes, name: str = "spikes", check_values: bool = True) -> np.
     if arr.dtype == bool:
         return arr.view(np.uint8)
     if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
-        raise TypeError(f"{name} must be uint8 0/1 (or bool/integer 0/1); got dtype {arr.dtype}")
+        raise TypeError(f"{name} must be uint8 0/1 (or bool, integer or float holding only 0 and 1); "
+                        f"got dtype {arr.dtype}")
     if check_values and arr.size:
         if arr.dtype == np.uint8:
             bad = arr.max() > 1
