@@ -1,4 +1,4 @@
-"""Eq. 4 from packed `.dat` bytes at 1000×1000 against np.unpackbits + sum."""
+"""Eq. 4 from packed `.dat` bytes at 1000×1000 and 250×400 against np.unpackbits + sum."""
 
 import importlib
 
@@ -10,19 +10,21 @@ from spikeref.stream import SpikeStream
 
 acc = importlib.import_module("spikeref.accumulate")
 
-H = W = 1000
 PLANES = 1000
+SIZES = {"1000x1000": (1000, 1000), "250x400": (250, 400)}
 
 
-@pytest.fixture(scope="module")
-def stream():
+@pytest.fixture(scope="module", params=list(SIZES))
+def stream(request):
+    h, w = SIZES[request.param]
     rng = np.random.default_rng(0)
     # random bytes: every pixel fires with probability 1/2, the worst case for nothing
-    packed = rng.integers(0, 256, (PLANES, H * W // 8), dtype=np.uint8)
-    return SpikeStream.from_packed(packed, H, W)
+    packed = rng.integers(0, 256, (PLANES, h * w // 8), dtype=np.uint8)
+    return SpikeStream.from_packed(packed, h, w)
 
 
 def _unpack_sum(stream, window, n_windows):
+    H, W = stream.height, stream.width
     out = np.empty((n_windows, H, W), np.uint16)
     for k in range(n_windows):
         bits = np.unpackbits(stream.packed[k * window : (k + 1) * window], axis=1, bitorder="little")
@@ -32,7 +34,8 @@ def _unpack_sum(stream, window, n_windows):
 
 @pytest.mark.parametrize("window", [10, 100])
 @pytest.mark.parametrize("kind", ["counts", "rates"])
-def test_eq4_packed_1000x1000(benchmark, report, stream, window, kind):
+def test_eq4_packed(benchmark, report, stream, window, kind):
+    H, W = stream.height, stream.width
     chunk = max(1, 200 // window)  # windows per call: a streaming reader's chunk
     if kind == "counts":
         out = np.empty((chunk, H, W), np.uint8)
@@ -54,5 +57,5 @@ def test_eq4_packed_1000x1000(benchmark, report, stream, window, kind):
     base = best_time(lambda: _unpack_sum(stream, window, n_base), repeat=2) / (n_base * window)
     rate = planes / fast
     benchmark.extra_info.update(planes_per_s=rate, unpackbits_planes_per_s=1 / base)
-    report(f"eq4 packed {kind} W={window}", f"{rate:9.0f} planes/s; unpackbits+sum {1 / base:7.0f} planes/s; "
+    report(f"eq4 packed {H}x{W} {kind} W={window}", f"{rate:9.0f} planes/s; unpackbits+sum {1 / base:7.0f} planes/s; "
            f"ratio {rate * base:5.1f}x")
