@@ -323,3 +323,131 @@ def test_long_memory_mapped_recording_streams_in_bounded_memory(tmp_path):
         tracemalloc.stop()
     assert i == n_frames - 1 == planes // 10 - 7  # every frame of the support's range
     assert peaks[1] <= peaks[0] * 1.1 + 64 * 1024  # after 10 % or 100 % of the recording: the same peak
+
+
+# ------------------------------------------------------------------ properties across stages
+even = st.integers(1, 6).map(lambda n: 2 * n)
+
+
+@settings(max_examples=30, deadline=None)
+@given(even, even, st.sampled_from(CFAS), st.integers(0, 2**31 - 1))
+def test_demosaic_is_a_convex_interpolation(h, w, cfa, seed):
+    mosaic = np.random.default_rng(seed).random((h, w)) * 10 ** np.random.default_rng(seed).uniform(-5, 5)
+    rgb = demosaic_bilinear(mosaic, cfa)
+    assert np.all(np.isfinite(rgb))
+    assert rgb.min() >= mosaic.min() * (1 - 1e-12) and rgb.max() <= mosaic.max() * (1 + 1e-12)
+    np.testing.assert_allclose(demosaic_bilinear(mosaic.astype(np.float32), cfa), rgb, rtol=2e-6)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(1, 3).map(lambda n: 2 * n - 1), st.integers(2, 12), st.integers(2, 12), st.floats(0, 6),
+       st.integers(0, 2**31 - 1))
+def test_warp_average_is_a_convex_combination(k, h, w, reach, seed):
+    rng = np.random.default_rng(seed)
+    frames = rng.random((k, 2, h, w))
+    flows = rng.uniform(-reach, reach, (k, 2, h, w))
+    flows[k // 2] = 0  # the reference
+    out = warp_average(frames, flows)
+    assert np.all(np.isfinite(out))
+    assert out.min() >= frames.min() - 1e-6 and out.max() <= frames.max() + 1e-6
+    np.testing.assert_allclose(warp_average(frames.astype(np.float32), flows.astype(np.float32)), out,
+                               rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(warp_average(frames, np.zeros_like(flows)), frames.mean(0), rtol=1e-6)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(1, 300), st.floats(0, 1), st.integers(0, 2**31 - 1))
+def test_tfi_tfstp_rates_stay_in_range_on_any_stream(t, p, seed):
+    rng = np.random.default_rng(seed)
+    spikes = (rng.random((t, 2, 8)) < p * rng.random((2, 8))).astype(np.uint8)
+    a = tfi(spikes)
+    b = tfstp(spikes)
+    assert np.all(np.isfinite(a)) and np.all((a >= 1.0 / 257 - 1e-9) & (a <= 1))
+    assert np.all(np.isfinite(b)) and np.all((b >= 0) & (b <= 1))
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), min_size=1, max_size=30),
+       st.floats(1e-6, 1e6))
+def test_tonemap_maps_anything_to_display_values_monotonically(values, gain):
+    x = np.array(values)
+    out = tonemap(x.reshape(1, -1), gain)[0]
+    assert out.dtype == np.uint8
+    finite = np.isfinite(x)
+    order = np.argsort(x[finite], kind="stable")
+    assert np.all(np.diff(out[finite][order].astype(int)) >= 0)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.floats(0, 1.5), st.floats(0.05, 2.0))
+def test_simulator_counts_match_the_integrate_and_fire_closed_form(radiance, threshold):
+    from spikeref.simulate.simulator import simulate
+
+    t = 300
+    spikes = simulate(_uniform_scene(radiance, threshold, planes=t, size=2), seed=0).spikes
+    # no effects, no initial charge: count = min(T, ⌊r T / E_th⌋), to one spike of float rounding
+    expect = min(t, int(np.floor(radiance * t / threshold + 1e-9)))
+    assert np.all(np.abs(spikes.sum(0).astype(int) - expect) <= 1)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(8, 40), st.integers(8, 40), st.floats(0, 1), st.floats(5, 200), st.integers(0, 2**31 - 1))
+def test_denoiser_output_is_finite_and_bounded_on_any_rates(h, w, level, window, seed):
+    from spikeref.denoise.denoiser import Denoiser
+
+    rng = np.random.default_rng(seed)
+    planes = np.clip(level + rng.standard_normal((4, h, w)) * 0.3, 0, 1).astype(np.float32)
+    out = Denoiser.load()(planes, "visible", window=window)
+    assert out.shape == planes.shape and np.all(np.isfinite(out))
+    assert out.min() >= -0.2 and out.max() <= 1.5
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(-3, 3), st.integers(-3, 3), st.integers(0, 2**31 - 1))
+def test_alignment_recovers_integer_shifts_of_texture(dy, dx, seed):
+    tex = _texture(np.random.default_rng(seed))
+    moved = np.roll(tex, (dy, dx), axis=(0, 1))  # alternate[y + dy, x + dx] = reference[y, x]
+    flow = align(tex, moved, 0)
+    inner = (slice(16, -16), slice(16, -16))
+    assert np.all(np.isfinite(flow))
+    assert abs(np.median(flow[0][inner]) - dy) < 0.25 and abs(np.median(flow[1][inner]) - dx) < 0.25
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(11, 24), st.integers(11, 24), st.integers(0, 2**31 - 1))
+def test_metrics_float32_equals_float64(h, w, seed):
+    rng = np.random.default_rng(seed)
+    a = rng.random((h, w, 3))
+    b = np.clip(a + 0.05 * rng.standard_normal(a.shape), 0, None)
+    assert psnr(a.astype(np.float32), b.astype(np.float32), 1.0) == pytest.approx(psnr(a, b, 1.0), rel=1e-5)
+    assert ssim(a.astype(np.float32), b.astype(np.float32), 1.0) == pytest.approx(ssim(a, b, 1.0), abs=1e-5)
+
+
+def test_kernels_without_jit_equal_the_compiled_kernels(tmp_path, rng):
+    """NUMBA_DISABLE_JIT=1 runs every kernel of a small reconstruction as Python: the same frames."""
+    import subprocess
+    import sys
+
+    spikes = (rng.random((90, 16, 24)) < rng.random((16, 24)) * 0.7).astype(np.uint8)
+    np.save(tmp_path / "spikes.npy", spikes)
+    script = f"""
+import numpy as np
+from spikeref.baselines import tfi, tfstp
+from spikeref.io.dat import pack_planes
+from spikeref.pipeline import ReconstructParams, Reconstructor
+from spikeref.stream import SpikeStream
+s = np.load({str(tmp_path / "spikes.npy")!r})
+packed = SpikeStream.from_packed(pack_planes(s), 16, 24, cfa="RGGB")
+p = ReconstructParams(window=10, K=3, L=2, align=False)
+frames = np.stack([f.rgb for f in Reconstructor(packed, p, lambda x: x).frames()])
+np.savez({str(tmp_path / "out.npz")!r}, frames=frames, tfi=tfi(s, times=[10, 50]), tfstp=tfstp(s, times=[10, 89]))
+"""
+    import os
+
+    for jit in ("0", "1"):
+        env = {**os.environ, "NUMBA_DISABLE_JIT": jit}
+        subprocess.run([sys.executable, "-c", script], check=True, env=env, capture_output=True)
+        (tmp_path / "out.npz").rename(tmp_path / f"out_{jit}.npz")
+    with np.load(tmp_path / "out_0.npz") as a, np.load(tmp_path / "out_1.npz") as b:
+        for key in ("frames", "tfi", "tfstp"):
+            np.testing.assert_allclose(a[key], b[key], rtol=1e-6, atol=1e-7, err_msg=key)
