@@ -160,10 +160,12 @@ def test_flow_from_tiles_matches_the_oracle_and_interpolates():
 # ----------------------------------------------------------------------------- known motion
 @pytest.mark.parametrize("shift", [(0, 0), (1, -1), (3, 0), (-2, 5), (7, -11), (-20, 13)])
 def test_integer_shift_is_found_exactly(shift):
-    ref = texture((128, 128), seed=1)
+    ref = texture((192, 192), seed=1)
     alt = np.roll(ref, shift, axis=(0, 1))  # alt[y + dy, x + dx] = ref[y, x]
     flow = align(ref, alt)
-    b = 40  # tiles whose search reaches past the edge see clamped samples, not the wrapped texture
+    # tiles whose search reaches past the edge see clamped samples, not the wrapped texture; with
+    # step 0's 32-pixel tiles their vectors reach 56 pixels in through the bilinear interpolation
+    b = 56
     np.testing.assert_array_equal(flow[0, b:-b, b:-b], shift[0])
     np.testing.assert_array_equal(flow[1, b:-b, b:-b], shift[1])
 
@@ -234,7 +236,8 @@ def test_ties_go_to_the_offset_closest_to_the_search_centre():
 def test_step_picks_the_tile_size():
     ref = texture((64, 64), seed=6)
     alt = np.roll(ref, (2, 1), axis=(0, 1))
-    assert align_tiles(ref, alt, 0)[0].shape == (7, 7, 2)  # 16-pixel tiles, stride 8
+    assert align_tiles(ref, alt, 0)[0].shape == (3, 3, 2)  # 32-pixel tiles, stride 16
+    assert align_tiles(ref, alt, 1)[0].shape == (7, 7, 2)  # 16-pixel tiles, stride 8
     assert align_tiles(ref, alt, 2)[0].shape == (15, 15, 2)  # 8-pixel tiles, stride 4
     assert align_tiles(ref, alt, 9)[1] == 8
     assert align_tiles(ref.astype(np.float64), alt, 1)[1] == 16
@@ -249,10 +252,10 @@ def test_motion_beyond_reach_is_finite():
 # ----------------------------------------------------------------------------- parameters and bad input
 def test_params_defaults_and_validation():
     p = AlignParams()
-    assert (p.levels, p.tile_by_step, p.coarse_tile, p.search_radius, p.subpixel) == (4, (16, 16, 8), 8,
+    assert (p.levels, p.tile_by_step, p.coarse_tile, p.search_radius, p.subpixel) == (4, (32, 16, 8), 8,
                                                                                       (1, 4, 4, 4), True)
-    assert [p.tile_for_step(s) for s in range(5)] == [16, 16, 8, 8, 8]
-    assert p.min_size() == 64 and SMALL.min_size(0) == 8 and AlignParams(levels=1, search_radius=(1,)).min_size() == 16
+    assert [p.tile_for_step(s) for s in range(5)] == [32, 16, 8, 8, 8]
+    assert p.min_size() == 64 and SMALL.min_size(0) == 8 and AlignParams(levels=1, search_radius=(1,)).min_size() == 32
     assert AlignParams(tile_by_step=[4], search_radius=[0, 1, 2, 3]).tile_by_step == (4,)
     bad = [
         (dict(levels=0, search_radius=()), "levels"),
@@ -293,7 +296,7 @@ def test_bad_input_names_the_argument():
     with pytest.raises(ValueError, match=r"reference is 20×30 on the plane grid; .*levels=4, coarse_tile=8.*"
                                          r"needs at least 64×64"):
         align(np.zeros((20, 30)), np.zeros((20, 30)))
-    with pytest.raises(ValueError, match=r"needs at least 16×16"):
+    with pytest.raises(ValueError, match=r"needs at least 32×32"):
         align(np.zeros((12, 40)), np.zeros((12, 40)), params=AlignParams(levels=1, search_radius=(1,)))
     with pytest.raises(TypeError, match="reference must be a real floating-point"):
         align(np.zeros((64, 64), int), ok)

@@ -111,8 +111,12 @@ def _score(reference: np.ndarray, image: np.ndarray) -> dict:
             "pu21_psnr": pu21_psnr(reference, img), "pu21_ssim": pu21_ssim(reference, img)}
 
 
-def run_setting(setting: Setting, stream, centres: list[int], denoiser=None) -> tuple[list[np.ndarray], dict]:
+def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
+                align_params=None) -> tuple[list[np.ndarray], dict]:
     """Frames of ``setting`` at the ``centres`` and its timings.
+
+    ``align_params`` (an :class:`~spikeref.align.AlignParams`) replaces the method's default
+    alignment parameters (for studies of the alignment; the bench itself uses the defaults).
 
     Returns
     -------
@@ -158,7 +162,9 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None) -> 
         offset = (centres[0] - w // 2) % w
         view = stream.slice(offset)
         ks = [(t - w // 2 - offset) // w for t in centres]
-        params = ReconstructParams(window=w, K=setting.K, L=setting.L, mode=setting.mode, align=setting.align)
+        extra = {} if align_params is None else {"align_params": align_params}
+        params = ReconstructParams(window=w, K=setting.K, L=setting.L, mode=setting.mode, align=setting.align,
+                                   **extra)
         rec = Reconstructor(view, params, denoiser)
         wanted = set(ks)
         t0 = time.perf_counter()
