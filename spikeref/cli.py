@@ -141,7 +141,7 @@ def cmd_reconstruct(args) -> int:
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.io.exr import read_exr
     from spikeref.pipeline import ReconstructParams, Reconstructor
-    from spikeref.render import FrameSink, exr_name
+    from spikeref.render import FrameSink, exr_name, frame_runs
 
     video, exr_dir = args.output, args.exr_dir
     if video is None and exr_dir is None:
@@ -173,20 +173,15 @@ def cmd_reconstruct(args) -> int:
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
     with FrameSink(video, exr_dir, fps=args.fps, half=args.half) as sink:
         bar = tqdm(total=b - a, desc="reconstruct", unit="frame")
-        k = a
-        while k < b:
-            if k in done:  # --resume: read back what an earlier run wrote (the video needs every frame)
-                sink.add(k, read_exr(exr_dir / exr_name(k)), on_disk=True)
-                bar.update(1)
-                k += 1
+        for lo, hi, on_disk in frame_runs(a, b, done):
+            if on_disk:  # --resume: read back what an earlier run wrote (the video needs every frame)
+                for k in range(lo, hi):
+                    sink.add(k, read_exr(exr_dir / exr_name(k)), on_disk=True)
+                    bar.update(1)
                 continue
-            stop = k
-            while stop < b and stop not in done:
-                stop += 1
-            for frame in rec.frames(k, stop):
+            for frame in rec.frames(lo, hi):
                 sink.add(frame.index, frame.rgb)
                 bar.update(1)
-            k = stop
         bar.close()
     for path in (video, exr_dir):
         if path is not None:

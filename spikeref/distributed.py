@@ -101,30 +101,23 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     from spikeref.io.dat import open_spike_file
     from spikeref.io.exr import write_exr
     from spikeref.pipeline import Reconstructor
-    from spikeref.render import exr_name
+    from spikeref.render import exr_name, frame_runs
 
     t0 = time.perf_counter()
     out = Path(exr_dir)
     out.mkdir(parents=True, exist_ok=True)
-    todo = [k for k in range(chunk.start, chunk.stop) if not (resume and (out / exr_name(k)).is_file())]
+    done = {k for k in range(chunk.start, chunk.stop) if resume and (out / exr_name(k)).is_file()}
+    todo = [(a, b) for a, b, on_disk in frame_runs(chunk.start, chunk.stop, done) if not on_disk]
     written = 0
     if todo:
         stream = open_spike_file(path, **open_kwargs)
         view = stream.slice(chunk.first_plane, chunk.stop_plane)
-        shift = chunk.first_plane // params.window
+        shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
         rec = Reconstructor(view, params, _denoiser(weights, params.mode))
-        k = todo[0]
-        while k <= todo[-1]:
-            if k not in todo:
-                k += 1
-                continue
-            stop = k
-            while stop < chunk.stop and stop in todo:
-                stop += 1
-            for frame in rec.frames(k - shift, stop - shift):
+        for a, b in todo:
+            for frame in rec.frames(a - shift, b - shift):
                 write_exr(out / exr_name(frame.index + shift), frame.rgb, half=half)
                 written += 1
-            k = stop
     return {"chunk": chunk.index, "frames": [chunk.start, chunk.stop], "written": written,
             "skipped": (chunk.stop - chunk.start) - written, "seconds": time.perf_counter() - t0,
             "planes_read": (chunk.stop_plane - chunk.first_plane) if todo else 0,

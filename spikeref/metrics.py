@@ -85,12 +85,16 @@ def _pair(reference, estimate) -> tuple[np.ndarray, np.ndarray]:
     return ref, est
 
 
+def _positive(name: str, value, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number ({what}); got {value!r}")
+    if not np.isfinite(value) or value <= 0:
+        raise ValueError(f"{name} must be a positive finite number ({what}); got {value!r}")
+    return float(value)
+
+
 def _data_range(data_range) -> float:
-    if isinstance(data_range, bool) or not isinstance(data_range, (int, float, np.integer, np.floating)):
-        raise TypeError(f"data_range must be a number (the peak signal, e.g. 1.0); got {data_range!r}")
-    if not np.isfinite(data_range) or data_range <= 0:
-        raise ValueError(f"data_range must be a positive finite number; got {data_range!r}")
-    return float(data_range)
+    return _positive("data_range", data_range, "the peak signal, e.g. 1.0")
 
 
 # ---------------------------------------------------------------------------- PSNR
@@ -216,14 +220,12 @@ def pu21_encode(luminance_cd_m2) -> np.ndarray:
 
 def _pu21_pair(reference, estimate, peak_luminance) -> tuple[np.ndarray, np.ndarray]:
     ref, est = _pair(reference, estimate)
-    if isinstance(peak_luminance, bool) or not isinstance(peak_luminance, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(peak_luminance) or peak_luminance <= 0:
-        raise ValueError(f"peak_luminance must be a positive number of cd/m²; got {peak_luminance!r}")
+    peak = _positive("peak_luminance", peak_luminance, "cd/m²")
     y_ref, y_est = luminance(ref), luminance(est)
     top = float(y_ref.max())
     if top <= 0:
         raise ValueError("reference is black (its peak luminance is 0): nothing to scale to peak_luminance")
-    scale = float(peak_luminance) / top
+    scale = peak / top
     return pu21_encode(np.maximum(y_ref * scale, 0)), pu21_encode(np.maximum(y_est * scale, 0))
 
 

@@ -18,12 +18,28 @@ from spikeref.io.exr import write_exr
 from spikeref.io.video import VideoWriter
 from spikeref.tonemap import Exposure, choose_exposure, tonemap
 
-__all__ = ["FrameSink", "baseline_frames", "render_baseline", "exr_name"]
+__all__ = ["FrameSink", "baseline_frames", "render_baseline", "exr_name", "frame_runs"]
 
 
 def exr_name(index: int) -> str:
     """File name of output frame ``index`` in an EXR folder."""
     return f"frame_{index:06d}.exr"
+
+
+def frame_runs(start: int, stop: int, done) -> Iterator[tuple[int, int, bool]]:
+    """Cut frames ``[start, stop)`` into runs ``(a, b, on_disk)`` of consecutive frames, in order.
+
+    ``on_disk`` runs hold frames in ``done`` (already written: ``--resume`` reads them back or
+    skips them); the others are reconstructed in one streamed pass each.
+    """
+    k = start
+    while k < stop:
+        on_disk = k in done
+        b = k + 1
+        while b < stop and (b in done) == on_disk:
+            b += 1
+        yield k, b, on_disk
+        k = b
 
 
 class FrameSink:

@@ -171,7 +171,7 @@ class SpikeStream:
         stop = len(self) if stop is None else stop
         if not isinstance(stop, (int, np.integer)):
             raise TypeError(f"stop must be an integer plane index; got {stop!r}")
-        self._check_range(start, int(stop) - int(start) if stop > start else 0)
+        self._check_range(start, int(stop) - int(start))
         data = self._array if self._array is not None else self._packed
         return SpikeStream(
             array=data[start:stop] if self._array is not None else None,

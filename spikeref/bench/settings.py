@@ -16,7 +16,7 @@ expands it:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 __all__ = ["BASELINES", "MODES", "AXES", "Setting", "BenchGrid", "FULL_GRID", "QUICK_GRID", "grid_settings",
            "parse_grid"]
@@ -177,4 +177,4 @@ def parse_grid(quick: bool = False, methods=None, modes=None, W=None, K=None, L=
         kw["frames"] = frames
     if scenes is not None:
         kw["scenes"] = tuple(scenes)
-    return BenchGrid(**{**base.__dict__, **kw})
+    return replace(base, **kw)
