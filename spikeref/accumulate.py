@@ -13,7 +13,9 @@ directly over the packed ``.dat`` bytes of a memory-mapped stream.  The packed
 kernel never unpacks a plane: it keeps *bit-sliced* counters (bit ``k`` of the
 count of 64 pixels in one machine word per level ``k``), adds each packed word
 with a ripple of XOR/AND over the ``⌈log2(W+1)⌉`` levels — 64 pixels per
-operation — and expands the counters to per-pixel counts once per window.
+operation; the fast path takes planes in pairs through a carry-save adder — and
+expands the counters to per-pixel counts once per window with two bit-matrix
+transposes (8 pixels' counts per 64-bit store).
 """
 
 from __future__ import annotations
@@ -95,35 +97,124 @@ def _transpose8(x):
     return x
 
 
+@njit(inline="always")
+def _transpose_lanes8(r0, r1, r2, r3, r4, r5, r6, r7):
+    # Eight words seen as eight byte lanes, each lane an 8×8 bit matrix (row = word, column =
+    # bit of the lane's byte): transpose every lane at once, so bit c of byte i of word r moves to
+    # bit r of byte i of word c.  Blocks of 4, 2, then 1 rows are swapped with masked XORs.
+    m4 = np.uint64(0x0F0F0F0F0F0F0F0F)
+    m2 = np.uint64(0x3333333333333333)
+    m1 = np.uint64(0x5555555555555555)
+    s4, s2, s1 = np.uint64(4), np.uint64(2), np.uint64(1)
+    x = ((r0 >> s4) ^ r4) & m4
+    r4 ^= x
+    r0 ^= x << s4
+    x = ((r1 >> s4) ^ r5) & m4
+    r5 ^= x
+    r1 ^= x << s4
+    x = ((r2 >> s4) ^ r6) & m4
+    r6 ^= x
+    r2 ^= x << s4
+    x = ((r3 >> s4) ^ r7) & m4
+    r7 ^= x
+    r3 ^= x << s4
+    x = ((r0 >> s2) ^ r2) & m2
+    r2 ^= x
+    r0 ^= x << s2
+    x = ((r1 >> s2) ^ r3) & m2
+    r3 ^= x
+    r1 ^= x << s2
+    x = ((r4 >> s2) ^ r6) & m2
+    r6 ^= x
+    r4 ^= x << s2
+    x = ((r5 >> s2) ^ r7) & m2
+    r7 ^= x
+    r5 ^= x << s2
+    x = ((r0 >> s1) ^ r1) & m1
+    r1 ^= x
+    r0 ^= x << s1
+    x = ((r2 >> s1) ^ r3) & m1
+    r3 ^= x
+    r2 ^= x << s1
+    x = ((r4 >> s1) ^ r5) & m1
+    r5 ^= x
+    r4 ^= x << s1
+    x = ((r6 >> s1) ^ r7) & m1
+    r7 ^= x
+    r6 ^= x << s1
+    return r0, r1, r2, r3, r4, r5, r6, r7
+
+
+@njit(inline="always")
+def _csa_level0(levels, carry, planes, t, j0, n):
+    # level 0 + planes[t] + planes[t + 1] (columns j0 …): sum bit into level 0, carry out
+    for j in range(n):
+        a = np.uint64(planes[t, j0 + j])
+        b = np.uint64(planes[t + 1, j0 + j])
+        o = levels[0, j]
+        u = o ^ a
+        levels[0, j] = u ^ b
+        carry[j] = (o & a) | (u & b)
+
+
 @njit(parallel=True)
 def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_offset, out8):
-    # Fast path: 64-bit words, rows a multiple of 8 pixels, window <= 255.  out8 is the uint8
-    # output (nwin, H, W) viewed as uint64 (nwin, H, W/8): one store writes the counts of 8 pixels.
-    nw = words.shape[1]
+    # Fast path: rows a multiple of 8 pixels, window <= 255 (nlev <= 8).  `words` are the packed
+    # planes viewed as little-endian uint64 (T, nw) or, when a plane's bytes are not a multiple of
+    # 8, as uint32 (T, nw32) joined in pairs into 64-bit words (the last one half empty when nw32
+    # is odd).  out8 is the uint8 output (nwin, H, W) viewed as uint64 (nwin, H, W/8): one store
+    # writes the counts of 8 pixels.
+    pairs = words.itemsize == 4
+    nw32 = words.shape[1]
+    nw = (nw32 + 1) // 2 if pairs else nw32
+    nbytes = words.itemsize * nw32
     wout8 = out8.shape[2]
     fw8 = file_width // 8
     off8 = col_offset // 8
     nchunk = (nw + _WORD_CHUNK - 1) // _WORD_CHUNK
-    lane_bits = np.uint64(0x0101010101010101)
+    s32 = np.uint64(32)
     for task in prange(nwin * nchunk):
         k = task // nchunk
         j0 = (task % nchunk) * _WORD_CHUNK
         j1 = min(nw, j0 + _WORD_CHUNK)
         n = j1 - j0
-        levels = np.zeros((nlev, n), dtype=np.uint64)
+        whole = n - 1 if (pairs and j1 == nw and nw32 % 2 == 1) else n  # words with both halves
+        levels = np.zeros((8, n), dtype=np.uint64)  # levels >= nlev stay zero
         carry = np.empty(n, dtype=np.uint64)
-        base = t0 + k * window
-        for t in range(base, base + window):
-            for j in range(n):
-                carry[j] = words[t, j0 + j]
-            for lev in range(nlev):
+        joined = np.empty((2, n), dtype=np.uint64)  # the uint32 pairs of two planes, joined
+        t = t0 + k * window
+        end = t + window
+        while t < end:
+            two = t + 1 < end
+            if pairs:
+                for i in range(2 if two else 1):
+                    for j in range(whole):
+                        jj = 2 * (j0 + j)
+                        joined[i, j] = np.uint64(words[t + i, jj]) | (np.uint64(words[t + i, jj + 1]) << s32)
+                    if whole < n:
+                        joined[i, whole] = np.uint64(words[t + i, nw32 - 1])
+            if two:
+                # two planes at once: a carry-save (full) adder of level 0 with both planes
+                # leaves their sum's bit 0 in level 0 and its carry for level 1
+                if pairs:
+                    _csa_level0(levels, carry, joined, 0, 0, n)
+                else:
+                    _csa_level0(levels, carry, words, t, j0, n)
+                first = 1
+                t += 2
+            else:
+                for j in range(n):
+                    carry[j] = joined[0, j] if pairs else np.uint64(words[t, j0 + j])
+                first = 0
+                t += 1
+            for lev in range(first, nlev):  # ripple the carry up the levels
                 for j in range(n):
                     c = levels[lev, j]
                     levels[lev, j] = c ^ carry[j]
                     carry[j] = c & carry[j]
-        # Byte q of a level word holds bit `lev` of the counts of pixels 8q..8q+7.  After the
-        # transpose, bit q of byte i holds that of pixel 8q + i, so (T >> q) & 0x0101.. puts
-        # pixel 8q + i's bit in byte i: eight counts assembled in one uint64.
+        # Expand to byte counts.  After _transpose8, bit q of byte i of level word `lev` is bit
+        # `lev` of the count of pixel 8q + i; the lane transpose of the eight level words then
+        # puts that bit at bit `lev` of byte i of word q: word q holds the counts of 8q..8q+7.
         for lev in range(nlev):
             for j in range(n):
                 levels[lev, j] = _transpose8(levels[lev, j])
@@ -131,13 +222,34 @@ def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_
         col8 = (j0 * 8) % fw8
         row = height - 1 - (j0 * 8) // fw8
         for j in range(n):
-            for q in range(8):
+            q0, q1, q2, q3, q4, q5, q6, q7 = _transpose_lanes8(
+                levels[0, j], levels[1, j], levels[2, j], levels[3, j],
+                levels[4, j], levels[5, j], levels[6, j], levels[7, j],
+            )
+            c8 = col8 - off8
+            if c8 >= 0 and c8 + 8 <= wout8 and col8 + 8 <= fw8 and (j0 + j) * 8 + 8 <= nbytes:
+                # all 8 groups in one output row
+                out8[k, row, c8] = q0
+                out8[k, row, c8 + 1] = q1
+                out8[k, row, c8 + 2] = q2
+                out8[k, row, c8 + 3] = q3
+                out8[k, row, c8 + 4] = q4
+                out8[k, row, c8 + 5] = q5
+                out8[k, row, c8 + 6] = q6
+                out8[k, row, c8 + 7] = q7
+                col8 += 8
+                if col8 == fw8:
+                    col8 = 0
+                    row -= 1
+                continue
+            for q in range(8):  # a word across a row end, the cropped columns or the plane's end
+                if (j0 + j) * 8 + q >= nbytes:
+                    break
+                v = q0 if q == 0 else q1 if q == 1 else q2 if q == 2 else q3 if q == 3 else (
+                    q4 if q == 4 else q5 if q == 5 else q6 if q == 6 else q7)
                 c8 = col8 - off8
                 if c8 >= 0 and c8 < wout8:
-                    acc = np.uint64(0)
-                    for lev in range(nlev):
-                        acc |= ((levels[lev, j] >> np.uint64(q)) & lane_bits) << np.uint64(lev)
-                    out8[k, row, c8] = acc
+                    out8[k, row, c8] = v
                 col8 += 1
                 if col8 == fw8:
                     col8 = 0
@@ -237,12 +349,12 @@ def window_counts(spikes, window: int, start: int = 0, count: int | None = None,
     if stream.is_packed:
         words, bits = _packed_words(stream.packed)
         fast = (
-            bits == 64 and dtype == np.uint8 and stream.width % 8 == 0
+            bits >= 32 and dtype == np.uint8 and stream.width % 8 == 0
             and stream.file_width % 8 == 0 and stream.col_offset % 8 == 0
         )
         if fast:
             _count_packed_bytes8(
-                words, start, window, count, int(window).bit_length(), stream.height,
+                words if bits == 64 else words.view("<u4"), start, window, count, int(window).bit_length(), stream.height,
                 stream.file_width, stream.col_offset, out.view("<u8"),
             )
             return out

@@ -39,14 +39,16 @@ def test_packed_and_unpacked_counts_agree(h, w, t, window, seed, p):
     np.testing.assert_array_equal(window_counts(SpikeStream.from_packed(pack_planes(spikes), h, w), window), ref)
 
 
-@pytest.mark.parametrize("window", [1, 7, 10, 255, 256, 300])
-def test_fast_packed_path_with_padded_rows(window):
-    # 1024-wide stored rows cropped to 1000 columns, at the sizes the fast 64-bit path takes
+@pytest.mark.parametrize("window, col_offset", [(1, 0), (7, 0), (10, 0), (255, 0), (256, 0), (300, 0),
+                                                (2, 8), (11, 16), (200, 24)])
+def test_fast_packed_path_with_padded_rows(window, col_offset):
+    # 1024-wide stored rows cropped to 1000 columns, at the sizes the fast 64-bit path takes; with
+    # an offset, words that straddle the crop's edges take the kernel's per-group branch
     h, fw, w = 8, 1024, 1000
     spikes = _spikes(window, (600, h, fw), 0.6)
-    stream = SpikeStream.from_packed(pack_planes(spikes), h, w, file_width=fw)
+    stream = SpikeStream.from_packed(pack_planes(spikes), h, w, file_width=fw, col_offset=col_offset)
     counts = window_counts(stream, window)
-    ref = spikes[: 600 // window * window].reshape(-1, window, h, fw).sum(1)[:, :, :w]
+    ref = spikes[: 600 // window * window].reshape(-1, window, h, fw).sum(1)[:, :, col_offset : col_offset + w]
     np.testing.assert_array_equal(counts, ref)
     assert counts.dtype == (np.uint8 if window <= 255 else np.uint16)
 
