@@ -354,8 +354,8 @@ def window_counts(spikes, window: int, start: int = 0, count: int | None = None,
         )
         if fast:
             _count_packed_bytes8(
-                words if bits == 64 else words.view("<u4"), start, window, count, int(window).bit_length(), stream.height,
-                stream.file_width, stream.col_offset, out.view("<u8"),
+                words if bits == 64 else words.view("<u4"), start, window, count, int(window).bit_length(),
+                stream.height, stream.file_width, stream.col_offset, out.view("<u8"),
             )
             return out
         nlev = int(window).bit_length()
