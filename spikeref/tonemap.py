@@ -68,5 +68,6 @@ def tonemap(frame: np.ndarray, exposure: Exposure | float = 1.0) -> np.ndarray:
     never crashes a writer.
     """
     gain = exposure.gain if isinstance(exposure, Exposure) else Exposure(float(exposure)).gain
-    x = np.nan_to_num(np.asarray(frame, dtype=np.float64) * gain, nan=0.0, posinf=1.0, neginf=0.0)
+    with np.errstate(over="ignore", invalid="ignore"):  # huge values → inf → white, as documented
+        x = np.nan_to_num(np.asarray(frame, dtype=np.float64) * gain, nan=0.0, posinf=1.0, neginf=0.0)
     return np.round(srgb_encode(x) * 255.0).astype(np.uint8)
