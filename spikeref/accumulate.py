@@ -48,6 +48,17 @@ def _count_unpacked(spikes, t0, window, nwin, out):
             out[k, y, x] = acc[x]
 
 
+@njit(inline="always")
+def _ripple(levels, carry, first, nlev, n):
+    # add the carry words into the bit-sliced counters from level `first` up (XOR = sum bit,
+    # AND = carry to the next level), 64 pixels per operation
+    for lev in range(first, nlev):
+        for j in range(n):
+            c = levels[lev, j]
+            levels[lev, j] = c ^ carry[j]
+            carry[j] = c & carry[j]
+
+
 @njit(parallel=True)
 def _count_packed(words, t0, window, nwin, nlev, bits_per_word, height, file_width, width, col_offset, out):
     # words (T, nw) uint8/16/32/64: packed planes viewed as little-endian words, so pixel p of the
@@ -65,11 +76,7 @@ def _count_packed(words, t0, window, nwin, nlev, bits_per_word, height, file_wid
         for t in range(base, base + window):
             for j in range(n):
                 carry[j] = words[t, j0 + j]
-            for lev in range(nlev):
-                for j in range(n):
-                    c = levels[lev, j]
-                    levels[lev, j] = c ^ carry[j]
-                    carry[j] = c & carry[j]
+            _ripple(levels, carry, 0, nlev, n)
         # expand the bit-sliced counters into per-pixel counts, upright and cropped
         for j in range(n):
             for b in range(bits_per_word):
@@ -207,11 +214,7 @@ def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_
                     carry[j] = joined[0, j] if pairs else np.uint64(words[t, j0 + j])
                 first = 0
                 t += 1
-            for lev in range(first, nlev):  # ripple the carry up the levels
-                for j in range(n):
-                    c = levels[lev, j]
-                    levels[lev, j] = c ^ carry[j]
-                    carry[j] = c & carry[j]
+            _ripple(levels, carry, first, nlev, n)
         # Expand to byte counts.  After _transpose8, bit q of byte i of level word `lev` is bit
         # `lev` of the count of pixel 8q + i; the lane transpose of the eight level words then
         # puts that bit at bit `lev` of byte i of word q: word q holds the counts of 8q..8q+7.
@@ -226,9 +229,10 @@ def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_
                 levels[0, j], levels[1, j], levels[2, j], levels[3, j],
                 levels[4, j], levels[5, j], levels[6, j], levels[7, j],
             )
+            # q0 … q7: the counts of pixels 8q..8q+7 of word j
             c8 = col8 - off8
             if c8 >= 0 and c8 + 8 <= wout8 and col8 + 8 <= fw8 and (j0 + j) * 8 + 8 <= nbytes:
-                # all 8 groups in one output row
+                # all 8 groups in one output row: stored from registers
                 out8[k, row, c8] = q0
                 out8[k, row, c8 + 1] = q1
                 out8[k, row, c8 + 2] = q2
@@ -242,14 +246,16 @@ def _count_packed_bytes8(words, t0, window, nwin, nlev, height, file_width, col_
                     col8 = 0
                     row -= 1
                 continue
-            for q in range(8):  # a word across a row end, the cropped columns or the plane's end
+            # a word across a row end, the cropped columns or the plane's end: group by group,
+            # through the (no longer needed) level rows
+            (levels[0, j], levels[1, j], levels[2, j], levels[3, j],
+             levels[4, j], levels[5, j], levels[6, j], levels[7, j]) = q0, q1, q2, q3, q4, q5, q6, q7
+            for q in range(8):
                 if (j0 + j) * 8 + q >= nbytes:
                     break
-                v = q0 if q == 0 else q1 if q == 1 else q2 if q == 2 else q3 if q == 3 else (
-                    q4 if q == 4 else q5 if q == 5 else q6 if q == 6 else q7)
                 c8 = col8 - off8
                 if c8 >= 0 and c8 < wout8:
-                    out8[k, row, c8] = v
+                    out8[k, row, c8] = levels[q, j]
                 col8 += 1
                 if col8 == fw8:
                     col8 = 0
