@@ -10,8 +10,9 @@ over the same window, in rate units):
 * ``<weights>/<mode>``: ``Ψ[D(I)]`` for each weights file and inference mode.
 
 PSNR and SSIM use ``data_range`` = the ground-truth frame's maximum (so a dim scene is not
-flattered by the rate scale's 1.0); SSIM is scikit-image's ``structural_similarity`` on RGB
-(``channel_axis=-1``, Gaussian weights, σ = 1.5), an independent implementation.
+flattered by the rate scale's 1.0), from :mod:`spikeref.metrics`; its SSIM (Gaussian weights,
+σ = 1.5, mean of the RGB channels) equals scikit-image's ``structural_similarity`` with those
+settings to 1e-9 (``tests/test_metrics.py``).
 
     python scripts/eval_denoiser.py --weights spikeref/denoise/weights/b2u_w32.npz --json out/eval.json
 """
@@ -33,18 +34,12 @@ SEED = 8
 WINDOWS = (10, 20, 50, 100, 200)
 
 
-def psnr(ref, est, data_range):
-    mse = float(np.mean((np.asarray(est, np.float64) - ref) ** 2))
-    return float("inf") if mse == 0 else 10 * np.log10(data_range**2 / mse)
-
-
 def main() -> None:
-    from skimage.metrics import structural_similarity
-
     from spikeref.accumulate import accumulate
     from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
     from spikeref.denoise.denoiser import DEFAULT_WEIGHTS, Denoiser
     from spikeref.io.dat import open_spike_file
+    from spikeref.metrics import psnr, ssim
     from spikeref.simulate.scenes import load_scene
     from spikeref.simulate.simulator import ground_truth
 
@@ -81,10 +76,7 @@ def main() -> None:
                 planes = bayer_planes(rates)
 
                 def score(method, rgb, name=toml.stem, w=w, gt=gt, dr=dr):
-                    rows.append((name, w, method, psnr(gt, rgb, dr),
-                                 float(structural_similarity(gt, rgb.astype(np.float64), data_range=dr,
-                                                             channel_axis=-1, gaussian_weights=True, sigma=1.5,
-                                                             use_sample_covariance=False))))
+                    rows.append((name, w, method, psnr(gt, rgb, dr), ssim(gt, rgb, dr)))
 
                 score("tfp", demosaic_bilinear(rates, stream.cfa))
                 for name, den in denoisers.items():

@@ -11,8 +11,9 @@ ground truth of that window (mean radiance, rate units):
 * ``ours`` — ``R_L`` of :mod:`spikeref.pipeline` (W = 10, K = 3, L = 3, bundled denoiser,
   ``visible``), and ``ours L=l`` for every step ``l`` (Fig. 5).
 
-PSNR uses ``data_range`` = the ground-truth frame's maximum; SSIM is scikit-image's on RGB
-(Gaussian σ = 1.5, population covariance).  For the translating texture, whose motion is
+PSNR and SSIM (:mod:`spikeref.metrics`: Gaussian σ = 1.5, population covariance, mean of the
+RGB channels — scikit-image's settings, equal to 1e-9) use ``data_range`` = the ground-truth
+frame's maximum.  For the translating texture, whose motion is
 known exactly, the end-point error of the flow ``F_l(k, k±1)`` per step ``l`` is reported
 (plane pixels, 16-pixel border left out).
 
@@ -35,19 +36,13 @@ SCENES = ROOT / "scripts" / "denoiser_scenes"
 SEED = 8
 
 
-def psnr(ref, est):
-    mse = float(np.mean((np.asarray(est, np.float64) - ref) ** 2))
-    return 10 * np.log10(float(ref.max()) ** 2 / mse)
-
-
 def main() -> None:
-    from skimage.metrics import structural_similarity
-
     from spikeref.accumulate import accumulate
     from spikeref.baselines import tfi, tfstp
     from spikeref.bayer import demosaic_bilinear
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.io.dat import open_spike_file
+    from spikeref.metrics import psnr, ssim
     from spikeref.pipeline import ReconstructParams, Reconstructor
     from spikeref.simulate.scenes import load_scene
     from spikeref.simulate.simulator import ground_truth
@@ -62,11 +57,6 @@ def main() -> None:
     W, K, L = 10, 3, 3
     den = Denoiser.load(args.weights)
     args.data_dir.mkdir(parents=True, exist_ok=True)
-
-    def ssim(gt, img):
-        return float(structural_similarity(gt, np.asarray(img, np.float64), data_range=float(gt.max()),
-                                           channel_axis=-1, gaussian_weights=True, sigma=1.5,
-                                           use_sample_covariance=False))
 
     rows, epe, seconds = [], {}, []
     for toml in sorted(SCENES.glob("heldout_*.toml")):
@@ -95,7 +85,7 @@ def main() -> None:
                 **{f"ours L={level}": s for level, s in enumerate(f.steps)},
             }
             for name, img in images.items():
-                rows.append((toml.stem, int(k), name, psnr(gt, img), ssim(gt, img)))
+                rows.append((toml.stem, int(k), name, psnr(gt, img, float(gt.max())), ssim(gt, img, float(gt.max()))))
             if known is not None:
                 vx, vy = known  # image pixels per second; content moves +v (alternate[y+dy] = reference[y])
                 per_window = np.array([vy, vx]) * W / stream.rate_hz / 2  # plane pixels per window

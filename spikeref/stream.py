@@ -172,10 +172,9 @@ class SpikeStream:
         if not isinstance(stop, (int, np.integer)):
             raise TypeError(f"stop must be an integer plane index; got {stop!r}")
         self._check_range(start, int(stop) - int(start))
-        data = self._array if self._array is not None else self._packed
         return SpikeStream(
-            array=data[start:stop] if self._array is not None else None,
-            packed=data[start:stop] if self._packed is not None else None,
+            array=self._array[start:stop] if self._array is not None else None,
+            packed=self._packed[start:stop] if self._packed is not None else None,
             height=self.height, width=self.width, file_width=self.file_width, col_offset=self.col_offset,
             cfa=self.cfa, rate_hz=self.rate_hz, path=self.path,
         )
