@@ -7,7 +7,9 @@ the recording), the frame ``I`` (Eq. 4) is compared with the exact ground truth 
 over the same window, in rate units):
 
 * ``tfp``: ``Ψ[I]``;
-* ``<weights>/<mode>``: ``Ψ[D(I)]`` for each weights file and inference mode.
+* ``<weights>/<mode>``: ``Ψ[D(I)]`` for each weights file and inference mode, with the residual
+  shrinkage (the default, :mod:`spikeref.denoise.shrinkage`) and, named ``<weights>-noshrink``,
+  without it (the paper's ``D(I)``).
 
 PSNR and SSIM use ``data_range`` = the ground-truth frame's maximum (so a dim scene is not
 flattered by the rate scale's 1.0), from :mod:`spikeref.metrics`; its SSIM (Gaussian weights,
@@ -48,14 +50,21 @@ def main() -> None:
     ap.add_argument("--modes", default="visible,blind,mixed")
     ap.add_argument("--windows", default=",".join(map(str, WINDOWS)))
     ap.add_argument("--frames", type=int, default=3, help="frames per scene and window")
+    ap.add_argument("--shrink", default="on,off",
+                    help="residual shrinkage after the network (spikeref.denoise.shrinkage): on, off or on,off; "
+                         "'off' is the paper's D(I), named <weights>-noshrink")
     ap.add_argument("--data-dir", type=Path, default=ROOT / ".heldout_data")
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
     modes = args.modes.split(",")
     windows = [int(w) for w in args.windows.split(",")]
     stems = [p.stem for p in args.weights]  # name by folder too where two files share a name
-    denoisers = {(f"{p.parent.name}/{p.stem}" if stems.count(p.stem) > 1 else p.stem): Denoiser.load(p)
-                 for p in args.weights}
+    shrinks = args.shrink.split(",")
+    if not shrinks or any(v not in ("on", "off") for v in shrinks):
+        ap.error(f"--shrink must be on, off or on,off; got {args.shrink!r}")
+    denoisers = {(f"{p.parent.name}/{p.stem}" if stems.count(p.stem) > 1 else p.stem)
+                 + ("" if v == "on" else "-noshrink"): Denoiser.load(p, shrink=v == "on")
+                 for p in args.weights for v in shrinks}
     args.data_dir.mkdir(parents=True, exist_ok=True)
 
     rows = []  # (scene, W, method, psnr, ssim)

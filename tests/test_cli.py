@@ -139,3 +139,13 @@ def test_reconstruct_bad_input(tmp_path, random_weights, capsys, extra, message)
     assert main(argv) == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_no_shrink_gives_the_papers_denoiser(tmp_path):
+    """`denoise --no-shrink` writes Ψ[D(I)] without the residual shrinkage; the default differs from it."""
+    outs = {}
+    for flag in ([], ["--no-shrink"]):
+        d = tmp_path / ("plain" if flag else "shrunk")
+        assert main(["denoise", "-W", "50", "--exr-dir", str(d), *flag]) == 0
+        outs[bool(flag)] = read_exr(sorted(d.glob("*.exr"))[0])
+    assert outs[True].shape == outs[False].shape and not np.array_equal(outs[True], outs[False])

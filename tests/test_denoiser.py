@@ -106,9 +106,24 @@ def test_cli_train_writes_weights(tmp_path):
     assert (tmp_path / "w.npz.ckpt").is_file()
 
 
-def _count_network():
+def _count_network(shrink=False):
     net = UNet.random(UNetSpec(width=4, depth=3), seed=5)
-    return Denoiser(UNet(net.spec, net.params, {"input_domain": "count"}))
+    return Denoiser(UNet(net.spec, net.params, {"input_domain": "count"}), shrink=shrink)
+
+
+def test_shrinkage_is_on_by_default_and_follows_the_network():
+    """Denoiser(...) = shrink_residual(I, D(I), W) after the network; shrink=False is the paper's D(I)."""
+    from spikeref.denoise.shrinkage import shrink_residual
+
+    plain = _count_network()
+    shrunk = _count_network(shrink=True)
+    assert Denoiser(plain.unet).shrink and not plain.shrink  # the default is on
+    planes = (np.random.default_rng(7).integers(0, 51, (4, 12, 20)) / 50).astype(np.float32)
+    d = plain(planes, window=50)
+    np.testing.assert_array_equal(shrunk(planes, window=50), shrink_residual(planes, d, 50))
+    assert not np.array_equal(shrunk(planes, window=50), d)
+    with pytest.raises(TypeError, match="shrink must be True or False"):
+        Denoiser(plain.unet, shrink="yes")
 
 
 def test_count_domain_network_sees_counts_and_returns_rates():
@@ -128,10 +143,13 @@ def test_count_domain_network_sees_counts_and_returns_rates():
         den(planes, window=0)
 
 
-def test_rate_domain_network_ignores_the_window(small):
+def test_rate_domain_network_uses_the_window_only_to_shrink(small):
     planes = np.random.default_rng(6).random((4, 12, 20)).astype(np.float32)
     assert small.input_domain == "rate"
-    np.testing.assert_array_equal(small(planes, window=10), small(planes, window=200))
+    plain = Denoiser(small.unet, shrink=False)
+    np.testing.assert_array_equal(plain(planes, window=10), plain(planes, window=200))
+    np.testing.assert_array_equal(plain(planes, window=10), small(planes))  # no window: no shrinkage
+    assert not np.array_equal(small(planes, window=10), small(planes, window=200))
 
 
 def test_unknown_input_domain_is_refused():

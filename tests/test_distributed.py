@@ -75,7 +75,9 @@ def test_chunks_run_anywhere_equal_one_run(recording, tmp_path):
         s = reconstruct_chunk(str(path), {}, p, c, str(tmp_path / "chunks"))
         assert s["written"] == c.stop - c.start and s["planes_read"] == c.stop_plane - c.first_plane
     _assert_identical(tmp_path / "chunks", tmp_path / "one")  # same process, same BLAS threads: bit for bit
-    _assert_identical(tmp_path / "chunks", single, rtol=1e-5)  # another BLAS thread count: float32 rounding
+    # another BLAS thread count: float32 rounding of the U-Net (~1 ulp), carried through the residual
+    # shrinkage and the later steps to at most 3.5e-5 relative (measured; docs/distributed.md)
+    _assert_identical(tmp_path / "chunks", single, rtol=1e-4)
 
 
 @pytest.fixture(scope="module")

@@ -15,6 +15,7 @@ from typing import Iterator
 import numpy as np
 
 from spikeref.denoise.blindspot import MODES, blindspot_denoise
+from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
 
 __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR"]
@@ -38,6 +39,12 @@ class Denoiser:
         ``λ`` of the mixed mode.
     cell : int
         Blind-spot cell (4 → 16 masks).
+    shrink : bool
+        After the network, give back the part of the residual ``I − D(I)`` that exceeds the
+        binomial noise of the exposure (:mod:`spikeref.denoise.shrinkage`; not in the paper,
+        on by default because it measured better at every window — ``docs/results.md``).
+        ``False`` gives the paper's ``D(I)`` exactly.  Needs the exposure: a call without
+        ``window`` (possible for a rate-domain network) skips it.
 
     Attributes
     ----------
@@ -50,12 +57,14 @@ class Denoiser:
         from a noisy short one (``spikeref.denoise.train.TrainConfig.input_domain``).
     """
 
-    def __init__(self, unet: UNet, mode: str = "visible", lam: float = 2.0, cell: int = 4):
+    def __init__(self, unet: UNet, mode: str = "visible", lam: float = 2.0, cell: int = 4, shrink: bool = True):
         if not isinstance(unet, UNet):
             raise TypeError(f"unet must be a spikeref.denoise.unet.UNet; got {type(unet).__name__}")
         if mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
-        self.unet, self.mode, self.lam, self.cell = unet, mode, float(lam), cell
+        if not isinstance(shrink, (bool, np.bool_)):
+            raise TypeError(f"shrink must be True or False; got {shrink!r}")
+        self.unet, self.mode, self.lam, self.cell, self.shrink = unet, mode, float(lam), cell, bool(shrink)
         domain = unet.meta.get("input_domain", unet.meta.get("config", {}).get("input_domain", "rate"))
         if domain not in ("count", "rate"):
             raise ValueError(f"the weights' metadata names an unknown input_domain {domain!r} (count or rate)")
@@ -79,14 +88,15 @@ class Denoiser:
         return cls(UNet.load(path), **kw)
 
     def __repr__(self) -> str:
-        return f"Denoiser({self.unet!r}, mode={self.mode!r})"
+        return f"Denoiser({self.unet!r}, mode={self.mode!r}, shrink={self.shrink})"
 
     def __call__(self, planes, mode: str | None = None, window: float | None = None) -> np.ndarray:
         """Denoise firing-rate planes ``(..., h, w)`` float (e.g. ``(4, H/2, W/2)``); same shape, float32.
 
         ``window`` is the exposure behind the rates, in planes (``W`` of Eq. 4; for a warped
         accumulation its noise-equivalent length).  A count-domain network needs it; a
-        rate-domain network ignores it.
+        rate-domain network uses it only for the residual shrinkage (``shrink``, applied for
+        ``window ≥ 1``).
         """
         arr = np.asarray(planes)
         if arr.ndim < 2:
@@ -94,19 +104,30 @@ class Denoiser:
         if not np.issubdtype(arr.dtype, np.floating):
             raise TypeError(f"planes must be floating point firing rates; got {arr.dtype}")
         if self.input_domain == "rate":
-            return blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
-                                     cell=self.cell, lam=self.lam)
+            out = blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
+                                    cell=self.cell, lam=self.lam)
+            if window is not None:
+                self._check_window(window)
+                if self.shrink and window >= 1:
+                    out = shrink_residual(arr, out, window)
+            return out
         if window is None:
             raise ValueError("these weights denoise spike counts: pass window= (the exposure in planes, "
                              "W of Eq. 4)")
-        if isinstance(window, bool) or not isinstance(window, (int, float, np.integer, np.floating)) \
-                or not np.isfinite(window) or window <= 0:
-            raise ValueError(f"window must be a positive number of planes; got {window!r}")
+        self._check_window(window)
         scale = np.float32(window)
         counts = arr.astype(np.float32) * scale
         out = blindspot_denoise(counts, self.unet, mode or self.mode, cell=self.cell, lam=self.lam)
         out /= scale
+        if self.shrink and window >= 1:
+            out = shrink_residual(arr, out, window)
         return out
+
+    @staticmethod
+    def _check_window(window) -> None:
+        if isinstance(window, bool) or not isinstance(window, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(window) or window <= 0:
+            raise ValueError(f"window must be a positive number of planes; got {window!r}")
 
     def frames(self, stream, window: int = 10, start: int = 0, count: int | None = None,
                mode: str | None = None) -> Iterator[tuple[int, np.ndarray]]:
