@@ -431,7 +431,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="visible: one network pass; blind: Eq. 10-11, 16 passes; mixed: (D + λf)/(1 + λ)")
     p.add_argument("--lam", type=float, default=2.0, help="λ of the mixed mode")
     p.add_argument("--no-shrink", action="store_true",
-                   help="after the network, do not give back the residual above the exposure's binomial noise (spikeref.denoise.shrinkage, on by default; off = the paper's D(I) exactly)")
+                   help="after the network, do not give back the residual above the exposure's binomial "
+                        "noise (spikeref.denoise.shrinkage, on by default; off = the paper's D(I) exactly)")
     p.add_argument("--weights", type=Path, default=None,
                    help="weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little sharper)")
     p.add_argument("--start", type=int, default=0, help="first plane")
@@ -460,7 +461,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
                    help="denoiser inference: visible (1 pass), blind (Eq. 10-11, 16 passes), mixed (17)")
     p.add_argument("--no-shrink", action="store_true",
-                   help="after the network, do not give back the residual above the exposure's binomial noise (spikeref.denoise.shrinkage, on by default; off = the paper's D(I) exactly)")
+                   help="after the network, do not give back the residual above the exposure's binomial "
+                        "noise (spikeref.denoise.shrinkage, on by default; off = the paper's D(I) exactly)")
     p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
     p.add_argument("--weights", type=Path, default=None,
                    help="denoiser weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little "
