@@ -123,11 +123,10 @@ def bayer_mosaic(planes: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
 
 @njit
 def _reflect(i, n):
-    # half-sample symmetric extension: -1 -> 0, n -> n-1 (n >= 1; |offset| <= 1)
-    if i < 0:
-        return -i - 1
-    if i >= n:
-        return 2 * n - i - 1
+    # half-sample symmetric extension: -1 -> 0, n -> n-1 (n >= 1), folded again for offsets
+    # beyond the image (the shrinkage's box can be wider than a small plane)
+    while i < 0 or i >= n:
+        i = -i - 1 if i < 0 else 2 * n - i - 1
     return i
 
 

@@ -103,31 +103,24 @@ class Denoiser:
             raise ValueError(f"planes must have shape (..., h, w); got {arr.shape}")
         if not np.issubdtype(arr.dtype, np.floating):
             raise TypeError(f"planes must be floating point firing rates; got {arr.dtype}")
+        if window is not None and (isinstance(window, bool)
+                                   or not isinstance(window, (int, float, np.integer, np.floating))
+                                   or not np.isfinite(window) or window <= 0):
+            raise ValueError(f"window must be a positive number of planes; got {window!r}")
         if self.input_domain == "rate":
             out = blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
                                     cell=self.cell, lam=self.lam)
-            if window is not None:
-                self._check_window(window)
-                if self.shrink and window >= 1:
-                    out = shrink_residual(arr, out, window)
-            return out
-        if window is None:
+        elif window is None:
             raise ValueError("these weights denoise spike counts: pass window= (the exposure in planes, "
                              "W of Eq. 4)")
-        self._check_window(window)
-        scale = np.float32(window)
-        counts = arr.astype(np.float32) * scale
-        out = blindspot_denoise(counts, self.unet, mode or self.mode, cell=self.cell, lam=self.lam)
-        out /= scale
-        if self.shrink and window >= 1:
+        else:
+            scale = np.float32(window)
+            counts = arr.astype(np.float32) * scale
+            out = blindspot_denoise(counts, self.unet, mode or self.mode, cell=self.cell, lam=self.lam)
+            out /= scale
+        if self.shrink and window is not None and window >= 1:
             out = shrink_residual(arr, out, window)
         return out
-
-    @staticmethod
-    def _check_window(window) -> None:
-        if isinstance(window, bool) or not isinstance(window, (int, float, np.integer, np.floating)) \
-                or not np.isfinite(window) or window <= 0:
-            raise ValueError(f"window must be a positive number of planes; got {window!r}")
 
     def frames(self, stream, window: int = 10, start: int = 0, count: int | None = None,
                mode: str | None = None) -> Iterator[tuple[int, np.ndarray]]:

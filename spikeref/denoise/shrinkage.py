@@ -40,6 +40,8 @@ from __future__ import annotations
 import numpy as np
 
 from spikeref._jit import njit
+from spikeref.bayer import _reflect
+from spikeref.denoise.blindspot import _check_image
 
 __all__ = ["shrink_residual", "residual_noise_variance"]
 
@@ -70,19 +72,13 @@ def _shrink_residual(noisy, denoised, inv_window, radius, out):
             for x in range(w):
                 s = 0.0
                 for dx in range(-radius, radius + 1):
-                    xx = x + dx
-                    while xx < 0 or xx >= w:  # half-sample symmetric: -1 → 0, w → w - 1
-                        xx = -xx - 1 if xx < 0 else 2 * w - xx - 1
-                    s += r2[y, xx]
+                    s += r2[y, _reflect(x + dx, w)]  # half-sample symmetric, like Ψ
                 rows[y, x] = s
         for y in range(h):
             for x in range(w):
                 s = 0.0
                 for dy in range(-radius, radius + 1):
-                    yy = y + dy
-                    while yy < 0 or yy >= h:
-                        yy = -yy - 1 if yy < 0 else 2 * h - yy - 1
-                    s += rows[yy, x]
+                    s += rows[_reflect(y + dy, h), x]
                 energy = s * inv_area
                 d = np.float64(denoised[c, y, x])
                 p = min(max(d, lo), hi)
@@ -111,15 +107,8 @@ def shrink_residual(noisy, denoised, window: float, radius: int = 1) -> np.ndarr
     ndarray, same shape, float32: ``D(I) + g (I − D(I))`` with ``g ∈ [0, 1]`` per pixel, so each
     value lies between ``D(I)`` and ``I``.
     """
-    a = np.asarray(noisy)
-    d = np.asarray(denoised)
-    for name, arr in (("noisy", a), ("denoised", d)):
-        if arr.ndim < 2:
-            raise ValueError(f"{name} must have shape (..., h, w); got {arr.shape}")
-        if not np.issubdtype(arr.dtype, np.floating):
-            raise TypeError(f"{name} must be floating point firing rates; got {arr.dtype}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} must be finite")
+    a = _check_image(noisy, "noisy")
+    d = _check_image(denoised, "denoised")
     if a.shape != d.shape:
         raise ValueError(f"noisy and denoised must have the same shape; got {a.shape} and {d.shape}")
     if isinstance(window, bool) or not isinstance(window, (int, float, np.integer, np.floating)) \
