@@ -25,8 +25,10 @@ from spikeref.oracles import camera as o_cam
 from spikeref.oracles import dat as o_dat
 from spikeref.oracles import effects as o_fx
 from spikeref.oracles import metrics as o_met
+from spikeref.oracles import shrinkage as o_shr
 from spikeref import metrics as _met
 from spikeref.denoise import blindspot as _bs
+from spikeref.denoise import shrinkage as _shr
 from spikeref.simulate import camera as _cam
 from spikeref.simulate import effects as _fx
 
@@ -54,6 +56,31 @@ def _spikes(seed, shape, p):
 
 def _inputs_dat():
     return {"spikes": _spikes(1, (3, 4, 8), 0.5), "wide_spikes": _spikes(2, (2, 2, 16), 0.5)}
+
+
+def _inputs_shrinkage():
+    """float32 rates of W = 10 and W = 200 windows of four 7×9 planes with a step edge, and a 3×3 box
+    blur of them standing in for D(I) (so the residual is large at the edge, noise elsewhere).
+
+    The last plane's first two rows have ``I = D`` exactly (zero residual energy, gain 0), and one
+    pixel per window sits at each clip bound of ``p`` (0 and 1).
+    """
+    rng = np.random.default_rng(11)
+    truth = np.where(np.arange(9) < 4, 0.15, 0.6) + np.linspace(0.0, 0.3, 4 * 7).reshape(4, 7, 1)
+    out = {}
+    for w in (10, 200):
+        noisy = rng.binomial(w, truth) / w
+        padded = np.pad(noisy, ((0, 0), (1, 1), (1, 1)), mode="symmetric")
+        denoised = sum(padded[:, dy:dy + 7, dx:dx + 9] for dy in range(3) for dx in range(3)) / 9
+        denoised[3, :2] = noisy[3, :2]
+        denoised[0, 0, 0], denoised[3, 6, 8] = 0.0, 1.0
+        out[f"noisy_w{w}"] = noisy.astype(np.float32)
+        out[f"denoised_w{w}"] = denoised.astype(np.float32)
+    return out
+
+
+def _shrinkage_outputs(fn, i):
+    return {f"w{w}": fn(i[f"noisy_w{w}"], i[f"denoised_w{w}"], w) for w in (10, 200)}
 
 
 def _inputs_eq4():
@@ -378,6 +405,17 @@ CASES: list[GoldenCase] = [
         rtol=1e-5, atol=1e-5,
         params={"levels": 4, "tile_by_step": [16, 16, 8], "coarse_tile": 8, "search_radius": [1, 4, 4, 4],
                 "subpixel": True, "pyramid_kernel": [1, 4, 6, 4, 1]},
+    ),
+    GoldenCase(
+        "shrinkage_residual", "— (not in the paper; after Eq. 10–11's D)",
+        "spikeref.denoise.shrinkage.shrink_residual", "spikeref.oracles.shrinkage.shrink_residual_oracle",
+        "D + g·(I − D), g = max(0, 1 − σ²/mean₃ₓ₃ r²), σ² = p(1 − p)/W with p = D clipped to [1/2W, 1 − 1/2W], "
+        "3×3 box half-sample symmetric at the border, g = 0 where the box's residual energy is 0; four 7×9 "
+        "planes (float32) at W = 10 and W = 200; the oracle computes in float64.",
+        _inputs_shrinkage,
+        lambda i: _shrinkage_outputs(o_shr.shrink_residual_oracle, i),
+        lambda i: _shrinkage_outputs(_shr.shrink_residual, i),
+        rtol=1e-6, atol=1e-7, params={"radius": 1, "windows": [10, 200], "dtype": "float32"},
     ),
     GoldenCase(
         "metrics_psnr_ssim_pu21", "metrics (Wang et al. 2004 SSIM; Mantiuk & Azimi 2021 PU21)",
