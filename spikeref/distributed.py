@@ -86,6 +86,23 @@ def _denoiser(weights, mode):
     return _DENOISERS[key]
 
 
+def _follow_worker_thread_limit() -> None:
+    """Give Numba's thread pool the limit Dask gives its worker processes.
+
+    Dask starts each worker process with ``OMP_NUM_THREADS=1`` (and the BLAS variables; its
+    ``distributed.nanny.pre-spawn-environ``) so that single-threaded workers share a node's cores
+    instead of each running a pool as wide as the node.  Numba's pool does not read those
+    variables, and the U-Net and the other kernels run on it, so follow ``OMP_NUM_THREADS`` here.
+    """
+    try:
+        limit = int(os.environ["OMP_NUM_THREADS"])
+    except (KeyError, ValueError):
+        return
+    import numba
+
+    numba.set_num_threads(max(1, min(limit, numba.config.NUMBA_NUM_THREADS)))
+
+
 def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, chunk: Chunk, exr_dir: str,
                       weights=None, half: bool = False, resume: bool = False) -> dict:
     """Reconstruct one chunk and write its EXR frames; runs on a worker (or anywhere).
@@ -103,6 +120,7 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     from spikeref.pipeline import Reconstructor
     from spikeref.render import exr_name, frame_runs
 
+    _follow_worker_thread_limit()
     t0 = time.perf_counter()
     out = Path(exr_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -17,7 +17,7 @@ from spikeref.pipeline import ReconstructParams, frame_range
 from spikeref.render import exr_name
 
 H, W_PX, PLANES = 128, 128, 170  # W=10, K=3, L=3: frames 3 … 13 (11 frames)
-ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
 
 
 @pytest.fixture(scope="module")
@@ -30,9 +30,8 @@ def recording(tmp_path_factory):
     path = folder / "moving.dat"
     write_dat(path, spikes)
     (folder / "moving.json").write_text('{"height": 128, "width": 128, "cfa": "RGGB"}')
-    # The single-process reference runs with one BLAS thread, as Dask's workers do by default
-    # (distributed.nanny.pre-spawn-environ): OpenBLAS sums in another order with 2 threads, which
-    # moves float32 results by ~1 ulp (see docs/distributed.md).
+    # The single-process reference runs with one thread (BLAS and Numba), as a Dask worker with
+    # threads_per_worker=1 does; the frames must not depend on it (docs/distributed.md).
     single = folder / "single_exr"
     env = {**os.environ, **ONE_THREAD}
     subprocess.run([sys.executable, "-m", "spikeref.cli", "reconstruct", str(path), "--exr-dir", str(single)],
@@ -44,14 +43,11 @@ def _frames(folder):
     return {p.name: read_exr(p) for p in sorted(Path(folder).glob("frame_*.exr"))}
 
 
-def _assert_identical(folder, reference, rtol=0.0):
+def _assert_identical(folder, reference):
     got, want = _frames(folder), _frames(reference)
     assert sorted(got) == sorted(want) and len(want) == len(frame_range(PLANES))
     for name in want:
-        if rtol:
-            np.testing.assert_allclose(got[name], want[name], rtol=rtol, atol=1e-7, err_msg=name)
-        else:
-            np.testing.assert_array_equal(got[name], want[name], err_msg=name)
+        np.testing.assert_array_equal(got[name], want[name], err_msg=name)
 
 
 def test_plan_covers_the_frames_with_the_support_overlap():
@@ -74,10 +70,10 @@ def test_chunks_run_anywhere_equal_one_run(recording, tmp_path):
     for c in plan_chunks(frame_range(PLANES), p, 4):  # in this process, no scheduler
         s = reconstruct_chunk(str(path), {}, p, c, str(tmp_path / "chunks"))
         assert s["written"] == c.stop - c.start and s["planes_read"] == c.stop_plane - c.first_plane
-    _assert_identical(tmp_path / "chunks", tmp_path / "one")  # same process, same BLAS threads: bit for bit
-    # another BLAS thread count: float32 rounding of the U-Net (~1 ulp), carried through the residual
-    # shrinkage and the later steps to at most 3.5e-5 relative (measured; docs/distributed.md)
-    _assert_identical(tmp_path / "chunks", single, rtol=1e-4)
+    _assert_identical(tmp_path / "chunks", tmp_path / "one")  # same process: bit for bit
+    # another process with one thread instead of two: also bit for bit (every kernel sums each
+    # output in a fixed order; the U-Net no longer calls BLAS)
+    _assert_identical(tmp_path / "chunks", single)
 
 
 @pytest.fixture(scope="module")

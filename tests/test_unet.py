@@ -8,16 +8,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spikeref.denoise.unet import UNet, UNetSpec, conv3x3, conv3x3_plain, layer_shapes
+from spikeref.denoise.unet import UNet, UNetSpec, conv3x3, conv3x3_im2col, conv3x3_plain, layer_shapes
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden" / "unet_forward.npz"
 
 
-def _conv_fast(x, w, b, slope):
-    """conv3x3 on channel-first arrays (the layout of conv3x3_plain)."""
+def _conv_im2col(x, w, b, slope):
+    """conv3x3_im2col on channel-first arrays (the layout of conv3x3_plain)."""
     cin, cout = w.shape[1], w.shape[0]
     wmat = np.ascontiguousarray(w.transpose(2, 3, 1, 0).reshape(9 * cin, cout))
-    return conv3x3(np.ascontiguousarray(x.transpose(0, 2, 3, 1)), wmat, b, slope).transpose(0, 3, 1, 2)
+    return conv3x3_im2col(np.ascontiguousarray(x.transpose(0, 2, 3, 1)), wmat, b, slope).transpose(0, 3, 1, 2)
 
 
 def test_the_paper_counts_25_convolutions():
@@ -27,40 +27,81 @@ def test_the_paper_counts_25_convolutions():
 
 
 @settings(max_examples=25, deadline=None)
-@given(n=st.integers(1, 2), cin=st.integers(1, 5), cout=st.integers(1, 5), h=st.integers(1, 9),
+@given(n=st.integers(1, 2), cin=st.integers(1, 5), cout=st.integers(1, 9), h=st.integers(1, 9),
        w=st.integers(1, 9), slope=st.sampled_from([None, 0.0, 0.1]), seed=st.integers(0, 2**16))
-def test_conv_im2col_equals_plain_reference(n, cin, cout, h, w, slope, seed):
+def test_conv_direct_and_im2col_equal_plain_reference(n, cin, cout, h, w, slope, seed):
+    # cout up to 9: the direct kernel works in groups of four output channels, the last one partial.
     rng = np.random.default_rng(seed)
     x = rng.standard_normal((n, cin, h, w)).astype(np.float32)
     wt = rng.standard_normal((cout, cin, 3, 3)).astype(np.float32)
     b = rng.standard_normal(cout).astype(np.float32)
-    np.testing.assert_allclose(_conv_fast(x, wt, b, slope), conv3x3_plain(x, wt, b, slope), rtol=1e-5, atol=1e-5)
+    expected = conv3x3_plain(x, wt, b, slope)
+    np.testing.assert_allclose(conv3x3(x, wt, b, slope), expected, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(_conv_im2col(x, wt, b, slope), expected, rtol=1e-5, atol=1e-5)
 
 
-def test_conv_known_values():
+@pytest.mark.parametrize("conv", [conv3x3, _conv_im2col], ids=["direct", "im2col"])
+def test_conv_known_values(conv):
     # A centre-tap kernel of 2 and bias 1 doubles and shifts; the corner-tap kernel (dy=dx=0)
     # reads the pixel up-left of each output (zero outside): cross-correlation, as PyTorch.
     x = np.arange(12, dtype=np.float32).reshape(1, 1, 3, 4)
     centre = np.zeros((1, 1, 3, 3), np.float32)
     centre[0, 0, 1, 1] = 2.0
-    np.testing.assert_array_equal(_conv_fast(x, centre, np.ones(1, np.float32), None), 2 * x + 1)
+    np.testing.assert_array_equal(conv(x, centre, np.ones(1, np.float32), None), 2 * x + 1)
     corner = np.zeros((1, 1, 3, 3), np.float32)
     corner[0, 0, 0, 0] = 1.0
     expected = np.zeros_like(x)
     expected[..., 1:, 1:] = x[..., :-1, :-1]
-    np.testing.assert_array_equal(_conv_fast(x, corner, np.zeros(1, np.float32), None), expected)
+    np.testing.assert_array_equal(conv(x, corner, np.zeros(1, np.float32), None), expected)
     neg = -np.ones((1, 1, 3, 4), np.float32)
-    np.testing.assert_allclose(_conv_fast(neg, centre, np.zeros(1, np.float32), 0.1), -0.2, rtol=1e-6)
+    np.testing.assert_allclose(conv(neg, centre, np.zeros(1, np.float32), 0.1), -0.2, rtol=1e-6)
 
 
-def test_strips_do_not_change_the_result(monkeypatch):
+def test_im2col_strips_do_not_change_the_result(monkeypatch):
     import spikeref.denoise.unet as unet
 
-    net = UNet.random(UNetSpec(width=4, depth=2), seed=3)
-    x = np.random.default_rng(0).random((2, 24, 20)).astype(np.float32)
-    whole = net(x)
+    rng = np.random.default_rng(0)
+    x = rng.random((2, 3, 24, 20)).astype(np.float32)
+    wt = rng.standard_normal((5, 3, 3, 3)).astype(np.float32)
+    b = rng.standard_normal(5).astype(np.float32)
+    whole = _conv_im2col(x, wt, b, 0.1)
     monkeypatch.setattr(unet, "_STRIP_BYTES", 1)  # one row per strip
-    np.testing.assert_allclose(net(x), whole, rtol=1e-6, atol=1e-7)
+    np.testing.assert_allclose(_conv_im2col(x, wt, b, 0.1), whole, rtol=1e-6, atol=1e-7)
+
+
+def test_network_output_does_not_depend_on_the_thread_count():
+    # Each output value of the direct kernel is summed by one job in a fixed order, so unlike
+    # BLAS the result is bit for bit the same with one thread or several.
+    numba = pytest.importorskip("numba")
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one Numba thread only")
+    net = UNet.random(UNetSpec(width=8, depth=3), seed=5)
+    x = np.random.default_rng(6).random((3, 40, 56)).astype(np.float32)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = net(x)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many = net(x)
+    finally:
+        numba.set_num_threads(before)
+    np.testing.assert_array_equal(one, many)
+
+
+def test_conv_refuses_bad_arguments():
+    x = np.zeros((1, 2, 5, 5), np.float32)
+    w = np.zeros((3, 2, 3, 3), np.float32)
+    b = np.zeros(3, np.float32)
+    with pytest.raises(ValueError, match="x must be"):
+        conv3x3(x[0], w, b, None)
+    with pytest.raises(ValueError, match="weight must have shape"):
+        conv3x3(x, np.zeros((3, 1, 3, 3), np.float32), b, None)
+    with pytest.raises(ValueError, match="bias must have shape"):
+        conv3x3(x, w, np.zeros(2, np.float32), None)
+    with pytest.raises(TypeError, match="x must be floating"):
+        conv3x3(x.astype(np.int32), w, b, None)
+    with pytest.raises(ValueError, match="slope"):
+        conv3x3(x, w, b, 1.5)
 
 
 def test_any_size_is_padded_and_cropped_back():

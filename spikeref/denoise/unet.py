@@ -21,9 +21,14 @@ four Bayer planes.
 Any input size is accepted: the image is reflect-padded at the bottom and right to a multiple
 of ``2^depth`` (32) and the output cropped back.
 
-Convolution is im2col + one BLAS matrix product per strip of rows, in channel-last layout
-(:func:`conv3x3`); :func:`conv3x3_plain` is the plain NumPy reference (one ``einsum`` per tap,
-no BLAS) it is tested and benchmarked against.
+Convolution is a direct Numba kernel in channel-first layout (:func:`conv3x3`): one job per
+output row and group of four output channels, the nine taps of each input channel summed as
+one expression over a row held in the L1 cache, which LLVM turns into fused multiply-adds over
+eight pixels at a time.  Every output value is computed by one job in a fixed order, so the
+result does not depend on the number of threads.  :func:`conv3x3_im2col` (im2col + one BLAS
+matrix product per strip of rows, channel-last; the network's convolution until 2026-11-23)
+and :func:`conv3x3_plain` (one ``einsum`` per tap, no BLAS) are kept as the measured
+alternatives and references (``benchmarks/test_speed_unet.py``).
 
 Weights file (``.npz``): ``format = "spikeref-unet-1"``, ``width``, ``depth``,
 ``negative_slope``, for each layer ``<name>.weight`` ``(out, in, 3, 3) float32`` and
@@ -39,7 +44,9 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["UNetSpec", "UNet", "layer_shapes", "conv3x3", "conv3x3_plain", "WEIGHTS_FORMAT"]
+from spikeref._jit import njit, prange
+
+__all__ = ["UNetSpec", "UNet", "layer_shapes", "conv3x3", "conv3x3_im2col", "conv3x3_plain", "WEIGHTS_FORMAT"]
 
 WEIGHTS_FORMAT = "spikeref-unet-1"
 
@@ -108,8 +115,185 @@ def _leaky(x: np.ndarray, slope: float) -> None:
         np.maximum(x, x * slope, out=x)
 
 
-def conv3x3(x: np.ndarray, wmat: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
-    """3×3 convolution, zero padding 1, by im2col + BLAS in strips of rows.
+@njit(parallel=True, fastmath={"contract"}, error_model="numpy")
+def _conv3x3_direct(xp, weight, bias, slope, act, out):
+    # xp: (n, cin, h + 2, w + 2) float32, zero border; weight: (cout, cin, 3, 3) float32;
+    # bias: (cout,) float32; out: (n, cout, h + 2, w + 2) float32 -- the interior is written,
+    # the border is left to the caller.  One job = one output row of four output channels
+    # (the last group repeats the last channel when cout is not a multiple of 4).  fastmath
+    # "contract" allows only the fusion of a product and a sum into one FMA; no reassociation.
+    n, cin, hp, wp = xp.shape
+    cout = weight.shape[0]
+    h = hp - 2
+    w = wp - 2
+    groups = (cout + 3) // 4
+    for job in prange(n * groups * h):
+        i = job // (groups * h)
+        rest = job - i * groups * h
+        g = rest // h
+        y = rest - g * h
+        o0 = 4 * g
+        o1 = min(o0 + 1, cout - 1)
+        o2 = min(o0 + 2, cout - 1)
+        o3 = min(o0 + 3, cout - 1)
+        # Fresh rows, so LLVM knows they alias neither each other nor the input.
+        a = np.empty(w, dtype=np.float32)
+        b = np.empty(w, dtype=np.float32)
+        c = np.empty(w, dtype=np.float32)
+        d = np.empty(w, dtype=np.float32)
+        a[:] = bias[o0]
+        b[:] = bias[o1]
+        c[:] = bias[o2]
+        d[:] = bias[o3]
+        for ci in range(cin):
+            r0 = xp[i, ci, y]
+            r1 = xp[i, ci, y + 1]
+            r2 = xp[i, ci, y + 2]
+            wa = weight[o0, ci]
+            wb = weight[o1, ci]
+            wc = weight[o2, ci]
+            wd = weight[o3, ci]
+            for x in range(w):
+                u0 = r0[x]
+                u1 = r0[x + 1]
+                u2 = r0[x + 2]
+                v0 = r1[x]
+                v1 = r1[x + 1]
+                v2 = r1[x + 2]
+                s0 = r2[x]
+                s1 = r2[x + 1]
+                s2 = r2[x + 2]
+                a[x] += ((wa[0, 0] * u0 + wa[0, 1] * u1 + wa[0, 2] * u2)
+                         + (wa[1, 0] * v0 + wa[1, 1] * v1 + wa[1, 2] * v2)
+                         + (wa[2, 0] * s0 + wa[2, 1] * s1 + wa[2, 2] * s2))
+                b[x] += ((wb[0, 0] * u0 + wb[0, 1] * u1 + wb[0, 2] * u2)
+                         + (wb[1, 0] * v0 + wb[1, 1] * v1 + wb[1, 2] * v2)
+                         + (wb[2, 0] * s0 + wb[2, 1] * s1 + wb[2, 2] * s2))
+                c[x] += ((wc[0, 0] * u0 + wc[0, 1] * u1 + wc[0, 2] * u2)
+                         + (wc[1, 0] * v0 + wc[1, 1] * v1 + wc[1, 2] * v2)
+                         + (wc[2, 0] * s0 + wc[2, 1] * s1 + wc[2, 2] * s2))
+                d[x] += ((wd[0, 0] * u0 + wd[0, 1] * u1 + wd[0, 2] * u2)
+                         + (wd[1, 0] * v0 + wd[1, 1] * v1 + wd[1, 2] * v2)
+                         + (wd[2, 0] * s0 + wd[2, 1] * s1 + wd[2, 2] * s2))
+        # Repeated channels (o1..o3 clamped to cout - 1) hold the same values: writing them
+        # again is harmless.
+        for k in range(4):
+            row = a if k == 0 else (b if k == 1 else (c if k == 2 else d))
+            dst = out[i, min(o0 + k, cout - 1), y + 1]
+            for x in range(w):
+                v = row[x]
+                if act and v < 0:
+                    v *= slope
+                dst[x + 1] = v
+
+
+@njit(parallel=True)
+def _maxpool_into(t, out):
+    # t: (n, c, h + 2, w + 2) with a border; out: (n, c, h/2 + 2, w/2 + 2), interior written:
+    # 2×2 max-pooling of t's interior.
+    n, c, hp, wp = out.shape
+    h2 = hp - 2
+    w2 = wp - 2
+    for job in prange(n * c * h2):
+        i = job // (c * h2)
+        rest = job - i * c * h2
+        k = rest // h2
+        y = rest - k * h2
+        top = t[i, k, 2 * y + 1]
+        bottom = t[i, k, 2 * y + 2]
+        dst = out[i, k, y + 1]
+        for x in range(w2):
+            dst[x + 1] = max(max(top[2 * x + 1], top[2 * x + 2]), max(bottom[2 * x + 1], bottom[2 * x + 2]))
+
+
+@njit(parallel=True)
+def _upsample_concat_into(low, skip, out):
+    # low: (n, c, h/2 + 2, w/2 + 2), skip: (n, cs, h + 2, w + 2), both with a border;
+    # out: (n, c + cs, h + 2, w + 2), interior written: [nearest ×2 of low, skip].
+    n, ct, hp, wp = out.shape
+    c = low.shape[1]
+    h = hp - 2
+    w = wp - 2
+    for job in prange(n * ct * h):
+        i = job // (ct * h)
+        rest = job - i * ct * h
+        k = rest // h
+        y = rest - k * h
+        dst = out[i, k, y + 1]
+        if k < c:
+            src = low[i, k, y // 2 + 1]
+            for x in range(w):
+                dst[x + 1] = src[x // 2 + 1]
+        else:
+            src = skip[i, k - c, y + 1]
+            for x in range(w):
+                dst[x + 1] = src[x + 1]
+
+
+def _padded_empty(n: int, c: int, h: int, w: int) -> np.ndarray:
+    """``(n, c, h + 2, w + 2) float32`` with a zero border and an uninitialised interior."""
+    buf = np.empty((n, c, h + 2, w + 2), dtype=np.float32)
+    buf[:, :, 0, :] = 0
+    buf[:, :, -1, :] = 0
+    buf[:, :, :, 0] = 0
+    buf[:, :, :, -1] = 0
+    return buf
+
+
+def _conv_padded(xp: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
+    n, _, hp, wp = xp.shape
+    out = _padded_empty(n, weight.shape[0], hp - 2, wp - 2)
+    _conv3x3_direct(xp, weight, bias, np.float32(0.0 if slope is None else slope), slope is not None, out)
+    return out
+
+
+def conv3x3(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
+    """3×3 convolution, zero padding 1, by a direct Numba kernel (channel-first).
+
+    Parameters
+    ----------
+    x : ndarray ``(N, Cin, H, W)`` float
+        Input (cast to float32).
+    weight : ndarray ``(Cout, Cin, 3, 3)`` float
+        PyTorch's ``Conv2d`` layout.
+    bias : ndarray ``(Cout,)`` float
+    slope : float or None
+        LeakyReLU slope applied to the output, or ``None`` for a linear layer.
+
+    Returns
+    -------
+    ndarray ``(N, Cout, H, W) float32``
+        ``out[n, o, y, x] = b[o] + Σ_{c,dy,dx} w[o, c, dy, dx] · x[n, c, y+dy−1, x+dx−1]``
+        (cross-correlation, as PyTorch's ``Conv2d``), summed in float32 with fused
+        multiply-adds; the same values whatever the number of threads.
+    """
+    x = np.asarray(x)
+    weight = np.asarray(weight)
+    bias = np.asarray(bias)
+    if x.ndim != 4 or 0 in x.shape:
+        raise ValueError(f"x must be a non-empty (N, Cin, H, W) array; got shape {x.shape}")
+    if weight.ndim != 4 or weight.shape[1:] != (x.shape[1], 3, 3) or weight.shape[0] < 1:
+        raise ValueError(f"weight must have shape (Cout, {x.shape[1]}, 3, 3); got {weight.shape}")
+    if bias.shape != (weight.shape[0],):
+        raise ValueError(f"bias must have shape ({weight.shape[0]},); got {bias.shape}")
+    for name, a in (("x", x), ("weight", weight), ("bias", bias)):
+        if not np.issubdtype(a.dtype, np.floating):
+            raise TypeError(f"{name} must be floating point; got {a.dtype}")
+    if slope is not None and not (np.isfinite(slope) and 0 <= slope < 1):
+        raise ValueError(f"slope must be None or lie in [0, 1); got {slope!r}")
+    n, cin, h, w = x.shape
+    xp = _padded_empty(n, cin, h, w)
+    xp[:, :, 1:-1, 1:-1] = x
+    out = _conv_padded(xp, np.ascontiguousarray(weight, dtype=np.float32),
+                       np.ascontiguousarray(bias, dtype=np.float32), slope)
+    return np.ascontiguousarray(out[:, :, 1:-1, 1:-1])
+
+
+def conv3x3_im2col(x: np.ndarray, wmat: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
+    """3×3 convolution, zero padding 1, by im2col + BLAS in strips of rows (channel-last).
+
+    The measured alternative to :func:`conv3x3` (``benchmarks/test_speed_unet.py``); the same
+    values to float32 rounding, but BLAS sums in an order that depends on its thread count.
 
     Parameters
     ----------
@@ -117,7 +301,7 @@ def conv3x3(x: np.ndarray, wmat: np.ndarray, bias: np.ndarray, slope: float | No
         Channel-last input.
     wmat : ndarray ``(9·Cin, Cout) float32``
         Weights, row ``(3·dy + dx)·Cin + c`` holding tap ``(dy, dx)`` of input channel ``c``
-        (:meth:`UNet.from_params` builds it from PyTorch's ``(Cout, Cin, 3, 3)``).
+        (from PyTorch's ``(Cout, Cin, 3, 3)``: ``w.transpose(2, 3, 1, 0).reshape(9 * Cin, Cout)``).
     bias : ndarray ``(Cout,) float32``
     slope : float or None
         LeakyReLU slope applied to the output, or ``None`` for a linear layer.
@@ -183,7 +367,6 @@ class UNet:
         self.spec = spec
         self.meta = dict(meta or {})
         self.params: dict[str, np.ndarray] = {}
-        self._layers: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         for name, (cin, cout) in layer_shapes(spec).items():
             for part, shape in (("weight", (cout, cin, 3, 3)), ("bias", (cout,))):
                 key = f"{name}.{part}"
@@ -195,9 +378,6 @@ class UNet:
                 if not np.issubdtype(arr.dtype, np.floating) or not np.all(np.isfinite(arr)):
                     raise ValueError(f"params[{key!r}] must be finite floating point")
                 self.params[key] = np.ascontiguousarray(arr, dtype=np.float32)
-            w = self.params[f"{name}.weight"]
-            wmat = np.ascontiguousarray(w.transpose(2, 3, 1, 0).reshape(9 * cin, cout))
-            self._layers[name] = (wmat, self.params[f"{name}.bias"])
         extra = sorted(set(params) - set(self.params))
         if extra:
             raise ValueError(f"params hold unknown arrays {extra[:4]} for a depth-{spec.depth} U-Net")
@@ -303,29 +483,38 @@ class UNet:
         m = self.spec.multiple
         ph, pw = (-h) % m, (-w) % m
         xp = np.pad(x.astype(np.float32), ((0, 0), (0, ph), (0, pw)), mode="reflect" if min(h, w) > 1 else "edge")
-        out = self._forward(xp[..., None])[..., 0][:, :h, :w]
+        out = self._forward(xp)[:, :h, :w]
         return np.ascontiguousarray(out[0] if single else out)
 
     def _forward(self, x: np.ndarray) -> np.ndarray:
-        """The layers on a padded channel-last batch ``(N, H, W, 1)``."""
+        """The layers on a padded batch ``(N, H, W)`` float32.
+
+        Activations are kept channel-first with a zero border of one pixel,
+        ``(N, C, H + 2, W + 2)``, so each convolution reads its input in place.
+        """
         slope = self.spec.negative_slope
-        layers = self._layers
+        params = self.params
 
         def conv(name, t, act=True):
-            wmat, b = layers[name]
-            return conv3x3(t, wmat, b, slope if act else None)
+            return _conv_padded(t, params[f"{name}.weight"], params[f"{name}.bias"], slope if act else None)
 
-        x = conv("head1", conv("head0", x))
-        skips = [x]
+        n, h, w = x.shape
+        t = _padded_empty(n, 1, h, w)
+        t[:, 0, 1:-1, 1:-1] = x
+        t = conv("head1", conv("head0", t))
+        skips = [t]
         for k in range(1, self.spec.depth + 1):
-            n, h, w, c = x.shape
-            x = x.reshape(n, h // 2, 2, w // 2, 2, c).max(axis=(2, 4))
-            x = conv(f"enc{k}b", conv(f"enc{k}a", x))
-            skips.append(x)
-        skips.pop()  # the bottleneck is x itself
+            c, hh, ww = t.shape[1], t.shape[2] - 2, t.shape[3] - 2
+            pooled = _padded_empty(n, c, hh // 2, ww // 2)
+            _maxpool_into(t, pooled)
+            t = conv(f"enc{k}b", conv(f"enc{k}a", pooled))
+            skips.append(t)
+        skips.pop()  # the bottleneck is t itself
         for k in range(self.spec.depth, 0, -1):
             skip = skips.pop()
-            up = np.repeat(np.repeat(x, 2, axis=1), 2, axis=2)
-            x = conv(f"dec{k}b", conv(f"dec{k}a", np.concatenate([up, skip], axis=-1)))
-        x = conv("tail1", conv("tail0", x))
-        return conv("tail2", x, act=False)
+            c, hh, ww = t.shape[1], skip.shape[2] - 2, skip.shape[3] - 2
+            cat = _padded_empty(n, c + skip.shape[1], hh, ww)
+            _upsample_concat_into(t, skip, cat)  # [nearest ×2 of t, skip]
+            t = conv(f"dec{k}b", conv(f"dec{k}a", cat))
+        t = conv("tail1", conv("tail0", t))
+        return conv("tail2", t, act=False)[:, 0, 1:-1, 1:-1]
