@@ -1,4 +1,4 @@
-"""The NumPy U-Net: the direct Numba convolution against im2col + BLAS and plain NumPy, and denoised frames/s.
+"""The U-Net (NumPy/Numba): the direct Numba convolution against im2col + BLAS and plain NumPy, and denoised frames/s.
 
 Frames are colour mosaics: four Bayer planes of (H/2, W/2) per frame, one shared network.
 ``visible`` is one pass per plane, ``blind`` 16 (Eq. 10–11), ``mixed`` 17.

@@ -92,15 +92,31 @@ def _follow_worker_thread_limit() -> None:
     Dask starts each worker process with ``OMP_NUM_THREADS=1`` (and the BLAS variables; its
     ``distributed.nanny.pre-spawn-environ``) so that single-threaded workers share a node's cores
     instead of each running a pool as wide as the node.  Numba's pool does not read those
-    variables, and the U-Net and the other kernels run on it, so follow ``OMP_NUM_THREADS`` here.
+    variables, and the U-Net and the other kernels run on it, so follow ``OMP_NUM_THREADS`` here
+    -- on a Dask worker only (the limit holds for the worker's task thread from then on); a
+    direct call elsewhere keeps the caller's setting.
     """
+    from spikeref._jit import numba, numba_available
+
+    if not numba_available:
+        return
+    try:
+        from distributed import get_worker
+
+        get_worker()
+    except (ImportError, ValueError):  # not inside a Dask worker
+        return
     try:
         limit = int(os.environ["OMP_NUM_THREADS"])
     except (KeyError, ValueError):
         return
-    import numba
-
     numba.set_num_threads(max(1, min(limit, numba.config.NUMBA_NUM_THREADS)))
+
+
+def _numba_threads() -> int:
+    from spikeref._jit import numba, numba_available
+
+    return numba.get_num_threads() if numba_available else 1
 
 
 def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, chunk: Chunk, exr_dir: str,
@@ -111,7 +127,8 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     -------
     dict
         ``chunk``, ``written``, ``skipped`` (frames), ``seconds`` (in this task),
-        ``planes_read``, ``peak_rss_mib`` (this worker process's peak so far), ``pid``.
+        ``planes_read``, ``peak_rss_mib`` (this worker process's peak so far), ``pid``,
+        ``threads`` (Numba's thread count in the task, after :func:`_follow_worker_thread_limit`).
     """
     import resource
 
@@ -139,7 +156,8 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     return {"chunk": chunk.index, "frames": [chunk.start, chunk.stop], "written": written,
             "skipped": (chunk.stop - chunk.start) - written, "seconds": time.perf_counter() - t0,
             "planes_read": (chunk.stop_plane - chunk.first_plane) if todo else 0,
-            "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "pid": os.getpid()}
+            "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "pid": os.getpid(),
+            "threads": _numba_threads()}
 
 
 def _make_client(workers, scheduler):

@@ -39,6 +39,12 @@ def recording(tmp_path_factory):
     return path, single
 
 
+def _numba_pool_size():
+    from spikeref._jit import numba, numba_available
+
+    return numba.config.NUMBA_NUM_THREADS if numba_available else 1
+
+
 def _frames(folder):
     return {p.name: read_exr(p) for p in sorted(Path(folder).glob("frame_*.exr"))}
 
@@ -61,8 +67,11 @@ def test_plan_covers_the_frames_with_the_support_overlap():
         plan_chunks(range(3, 14), p, 0)
 
 
-def test_chunks_run_anywhere_equal_one_run(recording, tmp_path):
+def test_chunks_run_anywhere_equal_one_run(recording, tmp_path, monkeypatch):
     path, single = recording
+    # Outside a Dask worker the thread cap does not apply, even with OMP_NUM_THREADS set: these
+    # chunks run with the process's whole Numba pool (two threads on a 2-core machine).
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
     p = ReconstructParams()
     whole = plan_chunks(frame_range(PLANES), p, 100)
     assert len(whole) == 1
@@ -70,9 +79,10 @@ def test_chunks_run_anywhere_equal_one_run(recording, tmp_path):
     for c in plan_chunks(frame_range(PLANES), p, 4):  # in this process, no scheduler
         s = reconstruct_chunk(str(path), {}, p, c, str(tmp_path / "chunks"))
         assert s["written"] == c.stop - c.start and s["planes_read"] == c.stop_plane - c.first_plane
+        assert s["threads"] == _numba_pool_size()
     _assert_identical(tmp_path / "chunks", tmp_path / "one")  # same process: bit for bit
-    # another process with one thread instead of two: also bit for bit (every kernel sums each
-    # output in a fixed order; the U-Net no longer calls BLAS)
+    # another process with one thread instead of the whole pool: also bit for bit (every kernel
+    # sums each output in a fixed order; the U-Net no longer calls BLAS)
     _assert_identical(tmp_path / "chunks", single)
 
 
@@ -92,6 +102,8 @@ def test_two_worker_processes_write_bit_identical_frames(recording, client, tmp_
     assert [s["chunk"] for s in summaries] == [0, 1, 2, 3]
     assert len({s["pid"] for s in summaries}) == 2  # both workers took chunks
     assert all(s["pid"] != os.getpid() and s["peak_rss_mib"] > 0 for s in summaries)
+    # Dask starts its workers with OMP_NUM_THREADS=1; each task caps Numba's pool to it
+    assert all(s["threads"] == 1 for s in summaries)
     _assert_identical(tmp_path, single)
     # resume: every frame on disk → no chunk runs; one frame removed → only its chunk runs
     assert reconstruct_distributed(path, tmp_path, client=client, chunk_frames=3, resume=True, progress=False) == []

@@ -88,6 +88,28 @@ def test_network_output_does_not_depend_on_the_thread_count():
     np.testing.assert_array_equal(one, many)
 
 
+def test_every_interior_value_is_written_and_borders_are_zero(monkeypatch):
+    # The activations live in buffers from _padded_empty (np.empty inside, zero border): fill
+    # the interiors with NaN first, and the network must still give the same finite output.
+    import spikeref.denoise.unet as unet
+
+    buf = unet._padded_empty(2, 3, 4, 5)
+    assert buf.shape == (2, 3, 6, 7)
+    assert not buf[:, :, [0, -1], :].any() and not buf[:, :, :, [0, -1]].any()
+    net = UNet.random(UNetSpec(width=6, depth=3), seed=8)
+    x = np.random.default_rng(9).random((2, 24, 40)).astype(np.float32)
+    clean = net(x)
+    original = unet._padded_empty
+
+    def poisoned(n, c, h, w):
+        b = original(n, c, h, w)
+        b[:, :, 1:-1, 1:-1] = np.nan
+        return b
+
+    monkeypatch.setattr(unet, "_padded_empty", poisoned)
+    np.testing.assert_array_equal(net(x), clean)
+
+
 def test_conv_refuses_bad_arguments():
     x = np.zeros((1, 2, 5, 5), np.float32)
     w = np.zeros((3, 2, 3, 3), np.float32)
@@ -102,6 +124,10 @@ def test_conv_refuses_bad_arguments():
         conv3x3(x.astype(np.int32), w, b, None)
     with pytest.raises(ValueError, match="slope"):
         conv3x3(x, w, b, 1.5)
+    with pytest.raises(TypeError, match="slope"):
+        conv3x3(x, w, b, False)
+    with pytest.raises(TypeError, match="slope"):
+        conv3x3(x, w, b, "0.1")
 
 
 def test_any_size_is_padded_and_cropped_back():

@@ -1,4 +1,4 @@
-"""The denoising U-Net ``f_θ`` of §4.1, inference in NumPy (no autograd, no deep-learning framework).
+"""The denoising U-Net ``f_θ`` of §4.1, inference in NumPy and Numba (no autograd, no deep-learning framework).
 
 Architecture (supplement §8: 5 encoder and 5 decoder blocks of two 3×3 convolutions with
 LeakyReLU, skip connections, head and tail — 25 convolutions):
@@ -264,8 +264,9 @@ def conv3x3(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | 
     -------
     ndarray ``(N, Cout, H, W) float32``
         ``out[n, o, y, x] = b[o] + Σ_{c,dy,dx} w[o, c, dy, dx] · x[n, c, y+dy−1, x+dx−1]``
-        (cross-correlation, as PyTorch's ``Conv2d``), summed in float32 with fused
-        multiply-adds; the same values whatever the number of threads.
+        (cross-correlation, as PyTorch's ``Conv2d``), summed in float32 (a product and a sum
+        may be fused into one FMA where the CPU has it); the same values whatever the number
+        of threads.
     """
     x = np.asarray(x)
     weight = np.asarray(weight)
@@ -279,8 +280,11 @@ def conv3x3(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | 
     for name, a in (("x", x), ("weight", weight), ("bias", bias)):
         if not np.issubdtype(a.dtype, np.floating):
             raise TypeError(f"{name} must be floating point; got {a.dtype}")
-    if slope is not None and not (np.isfinite(slope) and 0 <= slope < 1):
-        raise ValueError(f"slope must be None or lie in [0, 1); got {slope!r}")
+    if slope is not None:
+        if isinstance(slope, bool) or not isinstance(slope, (int, float, np.integer, np.floating)):
+            raise TypeError(f"slope must be None or a number; got {slope!r}")
+        if not (np.isfinite(slope) and 0 <= slope < 1):
+            raise ValueError(f"slope must be None or lie in [0, 1); got {slope!r}")
     n, cin, h, w = x.shape
     xp = _padded_empty(n, cin, h, w)
     xp[:, :, 1:-1, 1:-1] = x
@@ -499,6 +503,8 @@ class UNet:
             return _conv_padded(t, params[f"{name}.weight"], params[f"{name}.bias"], slope if act else None)
 
         n, h, w = x.shape
+        if h % self.spec.multiple or w % self.spec.multiple:  # __call__ pads; pooling needs it
+            raise ValueError(f"_forward needs sizes that are multiples of {self.spec.multiple}; got {h}×{w}")
         t = _padded_empty(n, 1, h, w)
         t[:, 0, 1:-1, 1:-1] = x
         t = conv("head1", conv("head0", t))
