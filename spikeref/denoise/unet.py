@@ -115,12 +115,32 @@ def _leaky(x: np.ndarray, slope: float) -> None:
         np.maximum(x, x * slope, out=x)
 
 
+@njit
+def _split_job(job, channels, rows):
+    # job over (n, channels, rows) in C order -> (image, channel, row)
+    i = job // (channels * rows)
+    rest = job - i * channels * rows
+    k = rest // rows
+    return i, k, rest - k * rows
+
+
+@njit
+def _store_row(src, dst, slope, act):
+    # dst[1 : w + 1] = src, through LeakyReLU when act
+    for x in range(src.shape[0]):
+        v = src[x]
+        if act and v < 0:
+            v *= slope
+        dst[x + 1] = v
+
+
 @njit(parallel=True, fastmath={"contract"}, error_model="numpy")
 def _conv3x3_direct(xp, weight, bias, slope, act, out):
     # xp: (n, cin, h + 2, w + 2) float32, zero border; weight: (cout, cin, 3, 3) float32;
     # bias: (cout,) float32; out: (n, cout, h + 2, w + 2) float32 -- the interior is written,
     # the border is left to the caller.  One job = one output row of four output channels
-    # (the last group repeats the last channel when cout is not a multiple of 4).  fastmath
+    # (the last group computes the last channel again where cout is not a multiple of 4, and
+    # stores it once).  fastmath
     # "contract" allows only the fusion of a product and a sum into one FMA; no reassociation.
     n, cin, hp, wp = xp.shape
     cout = weight.shape[0]
@@ -128,10 +148,7 @@ def _conv3x3_direct(xp, weight, bias, slope, act, out):
     w = wp - 2
     groups = (cout + 3) // 4
     for job in prange(n * groups * h):
-        i = job // (groups * h)
-        rest = job - i * groups * h
-        g = rest // h
-        y = rest - g * h
+        i, g, y = _split_job(job, groups, h)
         o0 = 4 * g
         o1 = min(o0 + 1, cout - 1)
         o2 = min(o0 + 2, cout - 1)
@@ -175,16 +192,13 @@ def _conv3x3_direct(xp, weight, bias, slope, act, out):
                 d[x] += ((wd[0, 0] * u0 + wd[0, 1] * u1 + wd[0, 2] * u2)
                          + (wd[1, 0] * v0 + wd[1, 1] * v1 + wd[1, 2] * v2)
                          + (wd[2, 0] * s0 + wd[2, 1] * s1 + wd[2, 2] * s2))
-        # Repeated channels (o1..o3 clamped to cout - 1) hold the same values: writing them
-        # again is harmless.
-        for k in range(4):
-            row = a if k == 0 else (b if k == 1 else (c if k == 2 else d))
-            dst = out[i, min(o0 + k, cout - 1), y + 1]
-            for x in range(w):
-                v = row[x]
-                if act and v < 0:
-                    v *= slope
-                dst[x + 1] = v
+        _store_row(a, out[i, o0, y + 1], slope, act)
+        if o0 + 1 < cout:  # the clamped repeats of the last channel are not stored
+            _store_row(b, out[i, o1, y + 1], slope, act)
+        if o0 + 2 < cout:
+            _store_row(c, out[i, o2, y + 1], slope, act)
+        if o0 + 3 < cout:
+            _store_row(d, out[i, o3, y + 1], slope, act)
 
 
 @njit(parallel=True)
@@ -195,10 +209,7 @@ def _maxpool_into(t, out):
     h2 = hp - 2
     w2 = wp - 2
     for job in prange(n * c * h2):
-        i = job // (c * h2)
-        rest = job - i * c * h2
-        k = rest // h2
-        y = rest - k * h2
+        i, k, y = _split_job(job, c, h2)
         top = t[i, k, 2 * y + 1]
         bottom = t[i, k, 2 * y + 2]
         dst = out[i, k, y + 1]
@@ -215,10 +226,7 @@ def _upsample_concat_into(low, skip, out):
     h = hp - 2
     w = wp - 2
     for job in prange(n * ct * h):
-        i = job // (ct * h)
-        rest = job - i * ct * h
-        k = rest // h
-        y = rest - k * h
+        i, k, y = _split_job(job, ct, h)
         dst = out[i, k, y + 1]
         if k < c:
             src = low[i, k, y // 2 + 1]
