@@ -156,3 +156,22 @@ def test_unknown_input_domain_is_refused():
     net = UNet.random(UNetSpec(width=4, depth=3), seed=5)
     with pytest.raises(ValueError, match="unknown input_domain"):
         Denoiser(UNet(net.spec, net.params, {"input_domain": "photons"}))
+
+
+def test_bad_settings_are_refused_when_made():
+    net = UNet.random(UNetSpec(width=4, depth=3), seed=5)
+    for lam in (-1.0, float("nan"), True, "2"):
+        with pytest.raises(ValueError, match="lam"):
+            Denoiser(net, lam=lam)
+    with pytest.raises(ValueError, match="cell must be"):
+        Denoiser(net, cell=0)
+    trained = UNet(net.spec, net.params, {"config": {"cell": 4}})
+    assert Denoiser(trained, cell=(4, 4)).cell == (4, 4)
+    with pytest.raises(ValueError, match="trained with"):
+        Denoiser(trained, cell=2)
+    stream = SpikeStream.from_array(np.zeros((40, 8, 8), np.uint8), cfa="RGGB")
+    den = Denoiser(net)
+    for kw, word in (({"count": 0}, "count"), ({"count": -2}, "count"), ({"start": -1}, "start")):
+        with pytest.raises(ValueError, match=word):
+            next(den.frames(stream, 10, **kw))
+    assert [k for k, _ in den.frames(stream, 10, count=2)] == [0, 1]

@@ -146,3 +146,38 @@ def test_stop_after_exports_part_of_the_schedule_and_resumes(tmp_path):
         np.testing.assert_array_equal(a.params[key], b.params[key], err_msg=key)
     with pytest.raises(ValueError, match="past stop_after"):
         tr.train(streams, tmp_path / "part.npz", cfg, resume=True, device="cpu", progress=False, stop_after=2)
+
+
+
+def test_training_reads_no_ground_truth(tmp_path, monkeypatch):
+    # `spikeref train` on an .npz that also carries a ground-truth array and on the embedded sample
+    # .dat (whose scene file would give its ground truth): only the spikes are read, and nothing that
+    # computes a ground truth or a scene's radiance is called.
+    import shutil
+
+    import spikeref.sample
+    import spikeref.simulate.simulator as sim
+    from spikeref.cli import main
+
+    def forbidden(*args, **kwargs):
+        raise AssertionError("training asked for a ground truth")
+
+    for owner, name in ((sim, "ground_truth"), (sim.SimulationResult, "ground_truth"), (sim, "readout_radiance"),
+                        (spikeref.sample, "sample_ground_truth"), (spikeref.sample, "sample_scene")):
+        monkeypatch.setattr(owner, name, forbidden)
+    read_keys = []
+    original_getitem = np.lib.npyio.NpzFile.__getitem__
+
+    def recording_getitem(self, key):
+        read_keys.append(key)
+        return original_getitem(self, key)
+
+    monkeypatch.setattr(np.lib.npyio.NpzFile, "__getitem__", recording_getitem)
+    npz = tmp_path / "labelled.npz"
+    np.savez(npz, spikes=_spikes((40, 64, 64)), ground_truth=np.full((4, 64, 64, 3), np.nan))
+    shutil.copy(spikeref.sample.SAMPLE_DAT, tmp_path / "sample.dat")
+    shutil.copy(spikeref.sample.SAMPLE_DAT.with_suffix(".json"), tmp_path / "sample.json")
+    code = main(["train", str(npz), str(tmp_path / "sample.dat"), "-o", str(tmp_path / "w.npz"), "--channels", "4",
+                 "--steps", "2", "--batch", "1", "--patch", "32", "--checkpoint-every", "10", "--device", "cpu"])
+    assert code == 0 and (tmp_path / "w.npz").is_file()
+    assert set(read_keys) == {"spikes"}

@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spikeref.denoise.unet import UNet, UNetSpec, conv3x3, conv3x3_im2col, conv3x3_plain, layer_shapes
+from spikeref.oracles.unet import unet_forward_oracle
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden" / "unet_forward.npz"
 
@@ -138,6 +139,11 @@ def test_any_size_is_padded_and_cropped_back():
     assert net(x[0]).shape == (13, 21)
     assert net(np.ones((1, 1), np.float32)).shape == (1, 1)
     assert net(x.astype(np.float64)).dtype == np.float32
+    # a thin image reflects along its long side too (a side of 1 repeats), as the oracle does
+    thin = x[:, :1, :]
+    np.testing.assert_allclose(net(thin), unet_forward_oracle(net.params, thin, depth=3), rtol=1e-5, atol=1e-6)
+    wide_padded = np.pad(thin, ((0, 0), (0, 7), (0, 3)), mode="reflect")
+    np.testing.assert_allclose(net(thin), net(wide_padded)[:, :1, :21], rtol=1e-6, atol=1e-7)
 
 
 def test_fast_network_meets_the_golden_oracle_output():

@@ -14,7 +14,7 @@ from typing import Iterator
 
 import numpy as np
 
-from spikeref.denoise.blindspot import MODES, blindspot_denoise
+from spikeref.denoise.blindspot import MODES, _check_cell, blindspot_denoise
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
 
@@ -64,6 +64,14 @@ class Denoiser:
             raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
         if not isinstance(shrink, (bool, np.bool_)):
             raise TypeError(f"shrink must be True or False; got {shrink!r}")
+        if (isinstance(lam, bool) or not isinstance(lam, (int, float, np.integer, np.floating))
+                or not np.isfinite(lam) or lam < 0):
+            raise ValueError(f"lam (λ of the mixed mode) must be a finite number ≥ 0; got {lam!r}")
+        cell_hw = _check_cell(cell)
+        trained = unet.meta.get("config", {}).get("cell")
+        if trained is not None and _check_cell(trained) != cell_hw:
+            raise ValueError(f"cell={cell!r} differs from the cell the weights were trained with ({trained!r}); "
+                             "the blind and mixed modes must hide pixels as in training")
         self.unet, self.mode, self.lam, self.cell, self.shrink = unet, mode, float(lam), cell, bool(shrink)
         domain = unet.meta.get("input_domain", unet.meta.get("config", {}).get("input_domain", "rate"))
         if domain not in ("count", "rate"):
@@ -135,6 +143,10 @@ class Denoiser:
 
         if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
             raise ValueError(f"window must be a positive number of planes; got {window!r}")
+        if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
+            raise ValueError(f"start must be a plane index ≥ 0; got {start!r}")
+        if count is not None and (isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1):
+            raise ValueError(f"count must be a positive number of frames (or None for all); got {count!r}")
         if stream.height % 2 or stream.width % 2:
             raise ValueError(f"the stream must have even height and width; got {stream.height}×{stream.width}")
         total = (len(stream) - start) // window

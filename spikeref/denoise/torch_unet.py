@@ -2,7 +2,7 @@
 
 Same layers, names and parameter layout as the NumPy network, so :func:`export_params`
 gives arrays that :class:`spikeref.denoise.unet.UNet` runs unchanged (a test and the golden
-file ``golden/unet_parity.npz`` hold the two forwards equal).  Inputs must already be a
+file ``golden/unet_forward.npz`` hold the two forwards equal).  Inputs must already be a
 multiple of ``2**depth`` in size (training crops are); the NumPy network pads for itself.
 """
 

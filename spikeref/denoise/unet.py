@@ -494,7 +494,7 @@ class UNet:
         n, h, w = x.shape
         m = self.spec.multiple
         ph, pw = (-h) % m, (-w) % m
-        xp = np.pad(x.astype(np.float32), ((0, 0), (0, ph), (0, pw)), mode="reflect" if min(h, w) > 1 else "edge")
+        xp = np.pad(x.astype(np.float32), ((0, 0), (0, ph), (0, pw)), mode="reflect")  # a side of 1 repeats
         out = self._forward(xp)[:, :h, :w]
         return np.ascontiguousarray(out[0] if single else out)
 

@@ -25,9 +25,11 @@ from spikeref.oracles import camera as o_cam
 from spikeref.oracles import dat as o_dat
 from spikeref.oracles import effects as o_fx
 from spikeref.oracles import metrics as o_met
+from spikeref.oracles import revisible as o_rev
 from spikeref.oracles import shrinkage as o_shr
 from spikeref import metrics as _met
 from spikeref.denoise import blindspot as _bs
+from spikeref.denoise import revisible as _rev
 from spikeref.denoise import shrinkage as _shr
 from spikeref.simulate import camera as _cam
 from spikeref.simulate import effects as _fx
@@ -81,6 +83,25 @@ def _inputs_shrinkage():
 
 def _shrinkage_outputs(fn, i):
     return {f"w{w}": fn(i[f"noisy_w{w}"], i[f"denoised_w{w}"], w) for w in (10, 200)}
+
+
+#: λ at the start, middle and end of the schedule, and η = 1 and η = 0.
+_REVISIBLE_SETTINGS = ((2.0, 1.0), (11.0, 1.0), (20.0, 1.0), (20.0, 0.0))
+
+
+def _inputs_revisible():
+    """A noisy 2×5×6 frame (rates), a blind output near it and a visible output nearer it."""
+    rng = np.random.default_rng(13)
+    noisy = rng.binomial(10, rng.uniform(0.05, 0.9, (2, 5, 6))) / 10.0
+    blind = np.clip(noisy + rng.normal(0.0, 0.1, noisy.shape), 0.0, 1.0)
+    visible = np.clip(noisy + rng.normal(0.0, 0.03, noisy.shape), 0.0, 1.0)
+    return {"blind": blind, "visible": visible, "noisy": noisy,
+            "lam_eta": np.array(_REVISIBLE_SETTINGS)}
+
+
+def _revisible_outputs(fn, i):
+    return {"loss": np.array([fn(i["blind"], i["visible"], i["noisy"], float(lam), float(eta))
+                              for lam, eta in i["lam_eta"]])}
 
 
 def _inputs_eq4():
@@ -405,6 +426,17 @@ CASES: list[GoldenCase] = [
         rtol=1e-5, atol=1e-5,
         params={"levels": 4, "tile_by_step": [16, 16, 8], "coarse_tile": 8, "search_radius": [1, 4, 4, 4],
                 "subpixel": True, "pyramid_kernel": [1, 4, 6, 4, 1]},
+    ),
+    GoldenCase(
+        "eq12_revisible_loss", "Eq. 12", "spikeref.denoise.revisible.revisible_loss",
+        "spikeref.oracles.revisible.revisible_loss_oracle",
+        "Regularised re-visible loss mean((D + λf − (λ+1)I)²) + η·mean((D − I)²) of a blind output D, a visible "
+        "output f and a noisy frame I (2×5×6 rates) at (λ, η) = (2, 1), (11, 1), (20, 1), (20, 0); the value "
+        "the PyTorch training loss must reproduce (its stop-gradient changes gradients, not values).",
+        _inputs_revisible,
+        lambda i: _revisible_outputs(o_rev.revisible_loss_oracle, i),
+        lambda i: _revisible_outputs(_rev.revisible_loss, i),
+        rtol=1e-12, atol=0.0, params={"lam_eta": [list(v) for v in _REVISIBLE_SETTINGS], "norm": "mean over pixels"},
     ),
     GoldenCase(
         "shrinkage_residual", "— (not in the paper; after Eq. 10–11's D)",
