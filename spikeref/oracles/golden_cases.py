@@ -50,6 +50,10 @@ class GoldenCase:
     rtol: float = 0.0
     atol: float = 0.0
     params: dict = field(default_factory=dict)
+    #: Run also with ``NUMBA_DISABLE_JIT=1`` in ``tests/test_golden.py``. False only for the end-to-end
+    #: pipeline: as Python its U-Net passes take tens of minutes, and every kernel it composes is
+    #: checked without the JIT by its own case.
+    jit_disabled_check: bool = True
 
 
 def _spikes(seed, shape, p):
@@ -256,6 +260,71 @@ def _align_oracle(i):
     return out
 
 
+#: The golden pipeline's settings: W = 5, K = 3, L = 3 on a 64×64 RGGB stream of 45 planes
+#: (frames 3 … 5 exist), with an alignment pyramid small enough for 32×32 Bayer planes.
+_PIPELINE = {"window": 5, "K": 3, "L": 3, "frames": (3, 4), "cfa": "RGGB",
+             "align": {"levels": 2, "tile_by_step": (16, 8), "coarse_tile": 8, "search_radius": (1, 4),
+                       "subpixel": True}}
+
+
+def _inputs_pipeline():
+    """45 planes of 64×64 RGGB spikes: integrate-and-fire (random phase, no other noise) of a
+    smooth random texture translating by (0.1, 0.25) pixels per plane (down, right), i.e. by
+    (0.25, 0.625) Bayer-plane pixels per window of 5 planes; and the bundled ``b2u_w16`` weights."""
+    from scipy.ndimage import gaussian_filter, map_coordinates
+
+    from spikeref.denoise.denoiser import DEFAULT_WEIGHTS
+    from spikeref.denoise.unet import UNet
+
+    rng = np.random.default_rng(14)
+    t_total, h, w = 45, 64, 64
+    field = gaussian_filter(rng.random((h + 32, w + 32)), 2.0)
+    field = (field - field.min()) / (field.max() - field.min())
+    yy, xx = np.mgrid[0:h, 0:w].astype(float)
+    charge = rng.random((h, w))
+    spikes = np.zeros((t_total, h, w), np.uint8)
+    for t in range(t_total):
+        charge += 0.05 + 0.85 * map_coordinates(field, [yy + 8 - 0.1 * t, xx + 8 - 0.25 * t], order=1)
+        spikes[t] = charge >= 1.0
+        charge[charge >= 1.0] -= 1.0
+    params = UNet.load(DEFAULT_WEIGHTS).params
+    return {"spikes": spikes, **{f"param_{k}": v for k, v in params.items()}}
+
+
+def _pipeline_align_params():
+    from spikeref.align import AlignParams
+
+    return AlignParams(**_PIPELINE["align"])
+
+
+def _pipeline_fast(i):
+    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.denoise.unet import UNet
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+    from spikeref.stream import SpikeStream
+
+    c = _PIPELINE
+    params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params())
+    net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
+    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net))
+    frames = list(rec.frames(c["frames"][0], c["frames"][-1] + 1, keep_steps=True))
+    offsets = range(-(c["K"] // 2), c["K"] // 2 + 1)
+    flows = [[[f.flows[(level, o)] if o else np.zeros_like(f.flows[(level, 1)]) for o in offsets]
+              for level in range(c["L"])] for f in frames]
+    return {"rgb": np.stack([f.rgb for f in frames]), "steps": np.stack([np.stack(f.steps[:-1]) for f in frames]),
+            "flows": np.array(flows)}
+
+
+def _pipeline_oracle(i):
+    from spikeref.oracles.pipeline import reconstruct_oracle
+
+    c = _PIPELINE
+    out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], _unet_params(i),
+                             _pipeline_align_params(), c["frames"])
+    out["steps"] = out["steps"][:, :-1]  # R_L is out["rgb"]
+    return {k: v.astype(np.float32) for k, v in out.items()}  # stored as float32: the file stays small
+
+
 def _inputs_spike_train():
     rng = np.random.default_rng(6)
     rates = np.array([[0.0, 0.004, 0.05], [0.2, 0.5, 1.0]])
@@ -448,6 +517,23 @@ CASES: list[GoldenCase] = [
         lambda i: _shrinkage_outputs(o_shr.shrink_residual_oracle, i),
         lambda i: _shrinkage_outputs(_shr.shrink_residual, i),
         rtol=1e-6, atol=1e-7, params={"radius": 1, "windows": [10, 200], "dtype": "float32"},
+    ),
+    GoldenCase(
+        "pipeline_frames", "Eq. 13–15, Fig. 3(b)", "spikeref.pipeline.Reconstructor (frames with keep_steps)",
+        "spikeref.oracles.pipeline.reconstruct_oracle",
+        "The whole reconstruction end to end: a 64×64 RGGB stream of 45 planes (a smooth texture moving by "
+        "(0.25, 0.625) plane pixels per window), W=5, K=3, L=3, the count-domain U-Net whose weights are in the "
+        "file (b2u_w16), visible mode, residual shrinkage, AlignParams(levels=2, tile_by_step=(16, 8), "
+        "coarse_tile=8, search_radius=(1, 4)). Outputs for frames 3 and 4: R_L (rgb), the earlier R_l (steps, "
+        "l = 0…2) and the flows F_l(k, k+i) (l = 0…2, i = −1, 0, 1; zero for i = 0) as (dy, dx) with "
+        "alternate[y+dy, x+dx] ≈ reference[y, x]. The oracle computes in float64; its outputs are stored "
+        "as float32.",
+        _inputs_pipeline, _pipeline_oracle, _pipeline_fast,
+        rtol=1e-4, atol=1e-5,
+        params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible", "shrink": True,
+                "input_domain": "count", "exposure": "W at l=0, W/Σc² at l≥1 (spikeref.pipeline.exposure_planes)",
+                "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
+        jit_disabled_check=False,
     ),
     GoldenCase(
         "metrics_psnr_ssim_pu21", "metrics (Wang et al. 2004 SSIM; Mantiuk & Azimi 2021 PU21)",
