@@ -493,7 +493,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "against the 2000-FPS ground truth (PSNR, SSIM, PU21-PSNR, PU21-SSIM) and "
                                    "timed in seconds per output frame in this process. Writes results.csv, "
                                    "results.md, contact_sheet.png and (with spikeref[plot]) pareto.png. "
-                                   "The full grid (38 settings) takes ~20 min on 2 cores; --quick (13 settings, "
+                                   "The full grid (38 settings) takes ~10 min on 2 cores; --quick (13 settings, "
                                    "2 frames per scene) under 3 min.",
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--quick", action="store_true",
