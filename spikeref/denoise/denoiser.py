@@ -83,8 +83,8 @@ class Denoiser:
         """From a weights ``.npz`` or the name of a bundled file (default: :data:`DEFAULT_WEIGHTS`).
 
         Bundled (``spikeref/denoise/weights/``, see ``docs/results.md``): ``b2u_w16`` (width 16,
-        trained on counts; the default) and ``b2u_w32`` (width 32, trained on rates; about twice
-        the time per frame).
+        trained on counts; the default) and ``b2u_w32`` (width 32, trained on rates; about four
+        times the time per frame with the direct convolution).
         """
         if path is None:
             path = DEFAULT_WEIGHTS
