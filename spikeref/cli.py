@@ -141,7 +141,7 @@ def cmd_reconstruct(args) -> int:
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.io.exr import read_exr
     from spikeref.pipeline import ReconstructParams, Reconstructor
-    from spikeref.render import FrameSink, exr_name, frame_runs
+    from spikeref.render import FrameSink, exr_name, frame_runs, frames_on_disk
 
     video, exr_dir = args.output, args.exr_dir
     if video is None and exr_dir is None:
@@ -167,7 +167,10 @@ def cmd_reconstruct(args) -> int:
                        f"k+{params.reach})")
     done = set()
     if args.resume:
-        done = {k for k in range(a, b) if (exr_dir / exr_name(k)).is_file()}
+        done, bad = frames_on_disk(exr_dir, range(a, b), stream.height, stream.width)
+        if bad:
+            print(f"{len(bad)} frame files in {exr_dir} are empty, unreadable or of another size "
+                  f"(first: {exr_name(bad[0])}); they are computed again", file=sys.stderr)
     fps_out = stream.rate_hz / args.window
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
           f" → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
@@ -178,7 +181,8 @@ def cmd_reconstruct(args) -> int:
         for lo, hi, on_disk in frame_runs(a, b, done):
             if on_disk:  # --resume: read back what an earlier run wrote (the video needs every frame)
                 for k in range(lo, hi):
-                    sink.add(k, read_exr(exr_dir / exr_name(k)), on_disk=True)
+                    if video is not None:
+                        sink.add(k, read_exr(exr_dir / exr_name(k)), on_disk=True)
                     bar.update(1)
                 continue
             for frame in rec.frames(lo, hi):
@@ -606,9 +610,11 @@ def main(argv=None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
+    from spikeref.distributed import ChunkError  # no Dask import: the module loads it when a cluster is made
+
     try:
         return args.func(args)
-    except (CliError, ValueError, TypeError, FileNotFoundError, OSError, ImportError) as exc:
+    except (CliError, ChunkError, ValueError, TypeError, FileNotFoundError, OSError, ImportError) as exc:
         print(f"spikeref {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

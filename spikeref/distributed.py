@@ -135,17 +135,17 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     from spikeref.io.dat import open_spike_file
     from spikeref.io.exr import write_exr
     from spikeref.pipeline import Reconstructor
-    from spikeref.render import exr_name, frame_runs
+    from spikeref.render import exr_name, frame_runs, frames_on_disk
 
     _follow_worker_thread_limit()
     t0 = time.perf_counter()
     out = Path(exr_dir)
     out.mkdir(parents=True, exist_ok=True)
-    done = {k for k in range(chunk.start, chunk.stop) if resume and (out / exr_name(k)).is_file()}
+    stream = open_spike_file(path, **open_kwargs)
+    done = frames_on_disk(out, range(chunk.start, chunk.stop), stream.height, stream.width)[0] if resume else set()
     todo = [(a, b) for a, b, on_disk in frame_runs(chunk.start, chunk.stop, done) if not on_disk]
     written = 0
     if todo:
-        stream = open_spike_file(path, **open_kwargs)
         view = stream.slice(chunk.first_plane, chunk.stop_plane)
         shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
         rec = Reconstructor(view, params, _denoiser(weights, params.mode))
@@ -216,7 +216,7 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     """
     from spikeref.io.dat import open_spike_file
     from spikeref.pipeline import Reconstructor
-    from spikeref.render import exr_name
+    from spikeref.render import frames_on_disk
 
     params = params if params is not None else ReconstructParams()
     open_kwargs = dict(open_kwargs or {})
@@ -238,7 +238,8 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     exr_dir.mkdir(parents=True, exist_ok=True)
     chunks = plan_chunks(frames, params, chunk_frames)
     if resume:
-        chunks = [c for c in chunks if not all((exr_dir / exr_name(k)).is_file() for k in range(c.start, c.stop))]
+        done = frames_on_disk(exr_dir, frames, stream.height, stream.width)[0]
+        chunks = [c for c in chunks if not all(k in done for k in range(c.start, c.stop))]
     if not chunks:
         return []
     own = None
@@ -288,7 +289,9 @@ def assemble_video(exr_dir, frames: range, video, fps: float = 30.0) -> Path:
     """Write the video of EXR frames ``frames`` in order, one exposure for the whole video.
 
     The exposure is chosen as in a single-process run (:class:`spikeref.render.FrameSink`:
-    the first 16 frames), so the video equals the one ``spikeref reconstruct`` writes.
+    the first 16 frames), so the video equals the one ``spikeref reconstruct`` writes from the
+    same float32 frames. With ``--half`` the exposure comes from the float16 read-backs, so the
+    two videos can differ slightly (as a resumed single-process run can).
     """
     from spikeref.io.exr import read_exr
     from spikeref.render import FrameSink, exr_name

@@ -26,7 +26,7 @@ Interpretations (DESIGN §4)
   the frames ``a:b`` of a full run (every frame depends on its support only), and a long
   recording can be cut into chunks.
 * The flow of step ``l`` uses the tile size ``AlignParams.tile_for_step(l)``: large tiles for
-  the noisy step-0 frames, smaller ones later (supplement §9).
+  the noisy step-0 frames, smaller ones later (supplement §8).
 * ``K = 1`` or ``L = 0`` reduces to the denoised TFP ``Ψ[D(I_0)]`` (no flow is computed);
   ``align=False`` uses zero flow (plain accumulation over the support: TFP with a
   ``((K−1)L+1)·W`` window, then ``D`` and Ψ) — for the accuracy-vs-time study.
@@ -223,6 +223,9 @@ class Reconstructor:
                keep_steps: bool = False) -> Iterator[ReconstructedFrame]:
         """Yield frames ``start … stop−1`` (default: every frame of :attr:`frames_available`)."""
         avail = self.frames_available
+        for name, v in (("start", start), ("stop", stop)):
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, np.integer))):
+                raise TypeError(f"{name} must be a frame number (int) or None; got {v!r}")
         start = avail.start if start is None else int(start)
         stop = avail.stop if stop is None else int(stop)
         if start < avail.start or stop > avail.stop or start > stop:
@@ -292,6 +295,9 @@ class _State:
                 out = np.asarray(self.rec._denoise(entry[0], exposure), dtype=np.float32)
             if out.shape != entry[0].shape:
                 raise ValueError(f"the denoiser returned shape {out.shape} for planes {entry[0].shape}")
+            if not np.all(np.isfinite(out)):
+                raise ValueError(f"the denoiser returned non-finite values (NaN or inf) for window {k} at step "
+                                 f"{level}")
             entry[1] = out
         return entry[1]
 
@@ -307,7 +313,7 @@ class _State:
         p, hh = self.p, self.p.half
         shape = self.window_counts(k).shape[1:]
         out = np.zeros((p.K, 2) + shape, np.float32)
-        if not p.align:
+        if not p.align or hh == 0:  # K = 1: no neighbour to align, so no denoising for flow either
             return out
         ref = self.luma(level, k)
         tile_step = level
@@ -367,9 +373,7 @@ class _State:
 def _check_align_size(h: int, w: int, p: ReconstructParams) -> None:
     """Frames must hold one finest tile of every step and one coarse tile at the coarsest level."""
     a = p.align_params
-    coarse = a.coarse_tile * 2 ** (a.levels - 1)
-    finest = max(a.tile_for_step(level) for level in range(p.L))
-    need = max(coarse, finest)
+    need = max(a.min_size(level) for level in range(p.L))  # the rule align() itself applies
     if min(h, w) < need:
         raise ValueError(f"frames are {h}×{w} on the Bayer-plane grid ({2 * h}×{2 * w} pixels); alignment with "
                          f"levels={a.levels}, coarse_tile={a.coarse_tile} needs at least {need}×{need} "
@@ -408,6 +412,8 @@ def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visibl
         stream = as_stream(stream, cfa="RGGB")
     params = ReconstructParams(window=W, K=K, L=L, mode=mode, align=align,
                                align_params=align_params if align_params is not None else AlignParams())
+    if frames is not None and (not isinstance(frames, slice) or frames.step not in (None, 1)):
+        raise ValueError(f"frames must be a slice a:b of frame numbers without a step; got {frames!r}")
     rec = Reconstructor(stream, params, denoiser)
     a = frames.start if frames is not None else None
     b = frames.stop if frames is not None else None

@@ -18,12 +18,43 @@ from spikeref.io.exr import write_exr
 from spikeref.io.video import VideoWriter
 from spikeref.tonemap import Exposure, choose_exposure, tonemap
 
-__all__ = ["FrameSink", "baseline_frames", "render_baseline", "exr_name", "frame_runs"]
+__all__ = ["FrameSink", "baseline_frames", "render_baseline", "exr_name", "frame_runs", "frames_on_disk"]
 
 
 def exr_name(index: int) -> str:
     """File name of output frame ``index`` in an EXR folder."""
     return f"frame_{index:06d}.exr"
+
+
+def frames_on_disk(exr_dir, frames, height: int, width: int) -> tuple[set[int], list[int]]:
+    """Which of ``frames`` an earlier run left in ``exr_dir``, for ``--resume``.
+
+    Returns ``(done, bad)``. ``done`` holds the frames whose EXR file reads back whole, finite,
+    ``height × width``. ``bad`` holds the frames whose file exists but is empty, truncated,
+    unreadable, not finite or of another size (a run with other settings). Bad frames count as
+    not done, and recomputing them overwrites the file. Every file is read in full, because a
+    truncated file can still have an intact header.
+    """
+    from pathlib import Path
+
+    from spikeref.io.exr import read_exr
+
+    exr_dir = Path(exr_dir)
+    done, bad = set(), []
+    for k in frames:
+        path = exr_dir / exr_name(k)
+        if not path.exists():
+            continue
+        try:
+            frame = read_exr(path)
+        except (ValueError, OSError):
+            bad.append(k)
+            continue
+        if frame.shape[:2] == (height, width) and np.all(np.isfinite(frame)):
+            done.add(k)
+        else:
+            bad.append(k)
+    return done, bad
 
 
 def frame_runs(start: int, stop: int, done) -> Iterator[tuple[int, int, bool]]:

@@ -125,6 +125,36 @@ def test_reconstruct_chunks_and_resume_equal_one_run(tmp_path, random_weights, c
     assert (tmp_path / "b.mp4").stat().st_size > 1000
 
 
+def test_resume_recomputes_empty_truncated_and_foreign_frames(tmp_path, random_weights, capsys):
+    # What a power loss or a run with other settings can leave: a zero-byte file, half a file, a frame of
+    # another size. --resume must not count them as done (nor crash reading them back); it recomputes them.
+    from spikeref.io.exr import write_exr
+
+    w = ["--weights", str(random_weights), "-L", "1"]
+    ref, out = tmp_path / "ref", tmp_path / "out"
+    assert main(["reconstruct", "--exr-dir", str(ref), "--frames", "2:6", *w]) == 0
+    assert main(["reconstruct", "--exr-dir", str(out), "--frames", "2:6", *w]) == 0
+    good = (out / "frame_000005.exr").stat().st_mtime_ns
+    (out / "frame_000002.exr").write_bytes(b"")
+    data = (ref / "frame_000003.exr").read_bytes()
+    (out / "frame_000003.exr").write_bytes(data[: len(data) // 2])
+    write_exr(out / "frame_000004.exr", np.zeros((8, 8, 3), np.float32))
+    capsys.readouterr()
+    assert main(["reconstruct", "-o", str(tmp_path / "v.mp4"), "--exr-dir", str(out), "--frames", "2:6", "--resume",
+                 *w]) == 0
+    err = capsys.readouterr().err
+    assert "3 frame files" in err and "computed again" in err and "1 already written" in err
+    assert (out / "frame_000005.exr").stat().st_mtime_ns == good
+    for k in range(2, 6):
+        name = f"frame_{k:06d}.exr"
+        np.testing.assert_array_equal(read_exr(out / name), read_exr(ref / name))
+    # reading a damaged frame back (assembling a video from it) is a one-line error, not a traceback
+    for damaged in (b"", data[: len(data) // 2]):
+        (out / "frame_000003.exr").write_bytes(damaged)
+        with pytest.raises(ValueError, match="not a readable EXR"):
+            read_exr(out / "frame_000003.exr")
+
+
 @pytest.mark.parametrize("extra, message", [
     (["--frames", "0:5"], "this stream has frames 3:23"),
     (["--frames", "5"], "--frames must look like a:b"),

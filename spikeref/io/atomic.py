@@ -31,8 +31,17 @@ def _default_mode() -> int:
 
 
 def publish(tmp, path) -> None:
-    """Give a finished temporary file the usual permissions and rename it to ``path``."""
+    """Give a finished temporary file the usual permissions, flush it to disk and rename it to ``path``.
+
+    The flush (``fsync``) before the rename means that after a power loss ``path`` holds either
+    the old file or the whole new one, never an empty or partial file under the final name.
+    """
     os.chmod(tmp, _default_mode())
+    fd = os.open(tmp, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
     os.replace(tmp, path)
 
 

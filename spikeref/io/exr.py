@@ -41,12 +41,20 @@ def read_exr(path) -> np.ndarray:
     """Read an EXR written by :func:`write_exr` (or any RGB/Y scanline EXR) as float32."""
     import OpenEXR
 
-    with OpenEXR.File(str(path)) as f:
-        channels = f.channels()
-        if "RGB" in channels:
-            return np.asarray(channels["RGB"].pixels, dtype=np.float32)
-        if "Y" in channels:
-            return np.asarray(channels["Y"].pixels, dtype=np.float32)
-        if all(c in channels for c in "RGB"):
-            return np.stack([np.asarray(channels[c].pixels, np.float32) for c in "RGB"], axis=-1)
-        raise ValueError(f"{path}: no RGB or Y channels (found {sorted(channels)})")
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such EXR file: {path}")
+    try:
+        with OpenEXR.File(str(path)) as f:
+            channels = f.channels()
+            if "RGB" in channels:
+                return np.asarray(channels["RGB"].pixels, dtype=np.float32)
+            if "Y" in channels:
+                return np.asarray(channels["Y"].pixels, dtype=np.float32)
+            if all(c in channels for c in "RGB"):
+                return np.stack([np.asarray(channels[c].pixels, np.float32) for c in "RGB"], axis=-1)
+            found = sorted(channels)
+    except (RuntimeError, ValueError) as exc:  # OpenEXR's errors for an empty, truncated or foreign file
+        raise ValueError(f"{path}: not a readable EXR file ({exc})") from None
+    raise ValueError(f"{path}: no RGB or Y channels (found {found})")
+

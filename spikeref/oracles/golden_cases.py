@@ -485,7 +485,7 @@ CASES: list[GoldenCase] = [
         rtol=1e-5, atol=1e-6, params={"K": 3},
     ),
     GoldenCase(
-        "align_hdrplus", "§4.2 / supplement §9 (HDR+ alignment)", "spikeref.align.align_tiles, spikeref.align.align",
+        "align_hdrplus", "§4.2 / supplement §8 (HDR+ alignment)", "spikeref.align.align_tiles, spikeref.align.align",
         "spikeref.oracles.align.align_tiles_oracle",
         "Tile vectors and per-pixel flow (dy, dx) of three known shifts of a smooth texture (72×80 plane "
         "pixels), AlignParams(tile_by_step=(16, 16, 8)) (the default until 2026-11-23), at step 0 "
