@@ -120,8 +120,11 @@ def _numba_threads() -> int:
 
 
 def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, chunk: Chunk, exr_dir: str,
-                      weights=None, half: bool = False, resume: bool = False) -> dict:
+                      weights=None, half: bool = False, skip=()) -> dict:
     """Reconstruct one chunk and write its EXR frames; runs on a worker (or anywhere).
+
+    ``skip`` lists frames of the chunk already on disk (``--resume``: the caller vetted them
+    with :func:`spikeref.render.frames_on_disk`, so the task reads no EXR file).
 
     Returns
     -------
@@ -135,17 +138,16 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     from spikeref.io.dat import open_spike_file
     from spikeref.io.exr import write_exr
     from spikeref.pipeline import Reconstructor
-    from spikeref.render import exr_name, frame_runs, frames_on_disk
+    from spikeref.render import exr_name, frame_runs
 
     _follow_worker_thread_limit()
     t0 = time.perf_counter()
     out = Path(exr_dir)
     out.mkdir(parents=True, exist_ok=True)
-    stream = open_spike_file(path, **open_kwargs)
-    done = frames_on_disk(out, range(chunk.start, chunk.stop), stream.height, stream.width)[0] if resume else set()
-    todo = [(a, b) for a, b, on_disk in frame_runs(chunk.start, chunk.stop, done) if not on_disk]
+    todo = [(a, b) for a, b, on_disk in frame_runs(chunk.start, chunk.stop, set(skip)) if not on_disk]
     written = 0
     if todo:
+        stream = open_spike_file(path, **open_kwargs)
         view = stream.slice(chunk.first_plane, chunk.stop_plane)
         shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
         rec = Reconstructor(view, params, _denoiser(weights, params.mode))
@@ -237,23 +239,22 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     exr_dir = Path(exr_dir).resolve()
     exr_dir.mkdir(parents=True, exist_ok=True)
     chunks = plan_chunks(frames, params, chunk_frames)
-    if resume:
-        done = frames_on_disk(exr_dir, frames, stream.height, stream.width)[0]
-        chunks = [c for c in chunks if not all(k in done for k in range(c.start, c.stop))]
+    done = frames_on_disk(exr_dir, frames, stream.height, stream.width)[0] if resume else set()
+    chunks = [c for c in chunks if not all(k in done for k in range(c.start, c.stop))]
     if not chunks:
         return []
     own = None
     if client is None:
         client, own = _make_client(workers, scheduler)
     try:
-        return _run(client, chunks, str(path), open_kwargs, params, str(exr_dir), weights, half, resume, progress)
+        return _run(client, chunks, str(path), open_kwargs, params, str(exr_dir), weights, half, done, progress)
     finally:
         if own is not None:
             client.close()
             own.close()
 
 
-def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, resume, progress) -> list[dict]:
+def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done, progress) -> list[dict]:
     from dask.distributed import as_completed
     from tqdm import tqdm
 
@@ -262,7 +263,8 @@ def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, resu
     t0 = time.perf_counter()
     futures = []
     for c in chunks:
-        f = client.submit(reconstruct_chunk, path, open_kwargs, params, c, exr_dir, weights, half, resume,
+        skip = tuple(k for k in range(c.start, c.stop) if k in done)
+        f = client.submit(reconstruct_chunk, path, open_kwargs, params, c, exr_dir, weights, half, skip,
                           key=f"spikeref-chunk-{c.index}-{os.getpid()}-{time.time_ns()}", pure=False)
         submitted[f.key] = c
         futures.append(f)

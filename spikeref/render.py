@@ -14,7 +14,7 @@ from typing import Iterator
 
 import numpy as np
 
-from spikeref.io.exr import write_exr
+from spikeref.io.exr import read_exr, write_exr
 from spikeref.io.video import VideoWriter
 from spikeref.tonemap import Exposure, choose_exposure, tonemap
 
@@ -35,10 +35,6 @@ def frames_on_disk(exr_dir, frames, height: int, width: int) -> tuple[set[int], 
     not done, and recomputing them overwrites the file. Every file is read in full, because a
     truncated file can still have an intact header.
     """
-    from pathlib import Path
-
-    from spikeref.io.exr import read_exr
-
     exr_dir = Path(exr_dir)
     done, bad = set(), []
     for k in frames:

@@ -124,6 +124,14 @@ def _split_job(job, channels, rows):
     return i, k, rest - k * rows
 
 
+@njit(fastmath={"contract"}, inline="always")
+def _nine_taps(k, u0, u1, u2, v0, v1, v2, s0, s1, s2):
+    # one output channel's 3×3 kernel k on the rows above (u), at (v) and below (s) the pixel
+    return ((k[0, 0] * u0 + k[0, 1] * u1 + k[0, 2] * u2)
+            + (k[1, 0] * v0 + k[1, 1] * v1 + k[1, 2] * v2)
+            + (k[2, 0] * s0 + k[2, 1] * s1 + k[2, 2] * s2))
+
+
 @njit
 def _store_row(src, dst, slope, act):
     # dst[1 : w + 1] = src, through LeakyReLU when act
@@ -180,18 +188,10 @@ def _conv3x3_direct(xp, weight, bias, slope, act, out):
                 s0 = r2[x]
                 s1 = r2[x + 1]
                 s2 = r2[x + 2]
-                a[x] += ((wa[0, 0] * u0 + wa[0, 1] * u1 + wa[0, 2] * u2)
-                         + (wa[1, 0] * v0 + wa[1, 1] * v1 + wa[1, 2] * v2)
-                         + (wa[2, 0] * s0 + wa[2, 1] * s1 + wa[2, 2] * s2))
-                b[x] += ((wb[0, 0] * u0 + wb[0, 1] * u1 + wb[0, 2] * u2)
-                         + (wb[1, 0] * v0 + wb[1, 1] * v1 + wb[1, 2] * v2)
-                         + (wb[2, 0] * s0 + wb[2, 1] * s1 + wb[2, 2] * s2))
-                c[x] += ((wc[0, 0] * u0 + wc[0, 1] * u1 + wc[0, 2] * u2)
-                         + (wc[1, 0] * v0 + wc[1, 1] * v1 + wc[1, 2] * v2)
-                         + (wc[2, 0] * s0 + wc[2, 1] * s1 + wc[2, 2] * s2))
-                d[x] += ((wd[0, 0] * u0 + wd[0, 1] * u1 + wd[0, 2] * u2)
-                         + (wd[1, 0] * v0 + wd[1, 1] * v1 + wd[1, 2] * v2)
-                         + (wd[2, 0] * s0 + wd[2, 1] * s1 + wd[2, 2] * s2))
+                a[x] += _nine_taps(wa, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+                b[x] += _nine_taps(wb, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+                c[x] += _nine_taps(wc, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+                d[x] += _nine_taps(wd, u0, u1, u2, v0, v1, v2, s0, s1, s2)
         _store_row(a, out[i, o0, y + 1], slope, act)
         if o0 + 1 < cout:  # the clamped repeats of the last channel are not stored
             _store_row(b, out[i, o1, y + 1], slope, act)
