@@ -17,7 +17,7 @@ frame's maximum.  For the translating texture, whose motion is
 known exactly, the end-point error of the flow ``F_l(k, k±1)`` per step ``l`` is reported
 (plane pixels, 16-pixel border left out).
 
-    python scripts/eval_pipeline.py --json out/eval_pipeline.json
+    python scripts/eval_pipeline.py --json out/eval_pipeline.json [--flow-frames smoothed]
 """
 
 from __future__ import annotations
@@ -53,6 +53,8 @@ def main() -> None:
     ap.add_argument("--mode", default="visible")
     ap.add_argument("--data-dir", type=Path, default=ROOT / ".heldout_data")
     ap.add_argument("--json", type=Path, default=None)
+    ap.add_argument("--flow-frames", default="denoised", choices=["denoised", "smoothed"],
+                    help="what the flow is estimated on (spikeref.pipeline.ReconstructParams)")
     args = ap.parse_args()
     W, K, L = 10, 3, 3
     den = Denoiser.load(args.weights)
@@ -67,7 +69,8 @@ def main() -> None:
                             "--seed", str(SEED)], check=True)
         stream = open_spike_file(dat)
         cfa = stream.cfa
-        rec = Reconstructor(stream, ReconstructParams(window=W, K=K, L=L, mode=args.mode), den)
+        params = ReconstructParams(window=W, K=K, L=L, mode=args.mode, flow_frames=args.flow_frames)
+        rec = Reconstructor(stream, params, den)
         avail = rec.frames_available
         ks = np.linspace(max(avail.start, 6), avail.stop - 6, args.frames).round().astype(int)
         known = getattr(scene.content, "velocity", None)

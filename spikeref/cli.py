@@ -149,7 +149,7 @@ def cmd_reconstruct(args) -> int:
     if args.resume and exr_dir is None:
         raise CliError("--resume needs --exr-dir (the frames already written are found there)")
     params = ReconstructParams(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align,
-                               align_params=AlignParams())
+                               align_params=AlignParams(), flow_frames=args.flow_frames)
     if args.workers is not None or args.scheduler is not None:
         if args.no_shrink:
             raise CliError("--no-shrink is not passed to Dask workers yet; run without --workers/--scheduler")
@@ -174,7 +174,8 @@ def cmd_reconstruct(args) -> int:
     fps_out = stream.rate_hz / args.window
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
           f" → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
-          f"{args.mode}{', no alignment' if args.no_align else ''})"
+          f"{args.mode}{', no alignment' if args.no_align else ''}"
+          f"{', flow on smoothed frames' if args.flow_frames == 'smoothed' and not args.no_align else ''})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
     with FrameSink(video, exr_dir, fps=args.fps, half=args.half) as sink:
         bar = tqdm(total=b - a, desc="reconstruct", unit="frame")
@@ -252,7 +253,7 @@ def cmd_bench(args) -> int:
     from spikeref.denoise.denoiser import Denoiser
 
     grid = parse_grid(quick=args.quick, methods=args.methods, modes=args.modes, W=args.W, K=args.K, L=args.L,
-                      align=args.align, frames=args.frames, scenes=args.scenes)
+                      align=args.align, frames=args.frames, scenes=args.scenes, flow_frames=args.flow_frames)
     scenes = bench_scenes(grid.scenes)  # unknown scene names fail here, before any work
     if args.sheet_scene is None:
         args.sheet_scene = "fan" if "fan" in [s.key for s in scenes] else scenes[0].key
@@ -468,6 +469,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="after the network, do not give back the residual above the exposure's binomial "
                         "noise (spikeref.denoise.shrinkage, on by default; off = the paper's D(I) exactly)")
     p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
+    p.add_argument("--flow-frames", choices=["denoised", "smoothed"], default="denoised",
+                   help="what each step's flow is estimated on: denoised (the paper, Fig. 3b: L+1 denoiser passes "
+                        "per frame) or smoothed (a Gaussian of σ = 1 Bayer-plane pixel on the raw frames; one "
+                        "denoiser pass per frame, about 3x faster, not in the paper; see docs/results.md)")
     p.add_argument("--weights", type=Path, default=None,
                    help="denoiser weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little "
                         "sharper)")
@@ -491,18 +496,19 @@ def build_parser() -> argparse.ArgumentParser:
                                      "(table, CSV, Pareto plot, contact sheet)",
                        description="Run TFP (W=10, W=100), TFI, TFSTP and the progressive warping over its "
                                    "settings (denoiser mode visible/mixed/blind, L = 0…3, K = 3, 5, W = 10, 20 "
-                                   "planes, alignment on/off) on the versioned benchmark scenes (static, "
-                                   "translation, fan, hdr, low_light; 128×128 pixels, 800 planes = 40 ms, "
+                                   "planes, alignment on/off, flow on denoised or smoothed frames) on the "
+                                   "versioned benchmark scenes (static, translation, fan, hdr, low_light; "
+                                   "128×128 pixels, 800 planes = 40 ms, "
                                    "simulated with realistic noise). Every method is scored at the same instants "
                                    "against the 2000-FPS ground truth (PSNR, SSIM, PU21-PSNR, PU21-SSIM) and "
                                    "timed in seconds per output frame in this process. Writes results.csv, "
                                    "results.md, contact_sheet.png and (with spikeref[plot]) pareto.png. "
-                                   "The full grid (38 settings) takes ~10 min on 2 cores; --quick (13 settings, "
+                                   "The full grid (50 settings) takes ~10 min on 2 cores; --quick (14 settings, "
                                    "2 frames per scene) under 3 min.",
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--quick", action="store_true",
-                   help="the quick grid: L axis at K=3, W=10 plus K=5, W=20, no alignment one at a time at L=3; "
-                        "mixed and blind at L=0; 2 scored frames per scene")
+                   help="the quick grid: L axis at K=3, W=10 plus K=5, W=20, no alignment, smoothed flow frames "
+                        "one at a time at L=3; mixed and blind at L=0; 2 scored frames per scene")
     p.add_argument("--out", type=Path, default=Path("spikeref-bench"), help="output folder")
     p.add_argument("--methods", type=_comma_list, default=None,
                    help="comma-separated subset of tfp10,tfp100,tfi,tfstp,ours (default: all)")
@@ -511,6 +517,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-K", type=_int_list, default=None, help="frames per step K of ours: 3,5")
     p.add_argument("-L", type=_int_list, default=None, help="steps L of ours: 0,1,2,3")
     p.add_argument("--align", type=_comma_list, default=None, help="alignment of ours: on,off")
+    p.add_argument("--flow-frames", type=_comma_list, default=None,
+                   help="what the flow of ours is estimated on: denoised (the paper), smoothed (the speed option)")
     p.add_argument("--frames", type=int, default=None, help="scored frames per scene, 1…8 (full 4, quick 2)")
     p.add_argument("--scenes", type=_comma_list, default=None,
                    help="comma-separated subset of static,translation,fan,hdr,low_light")

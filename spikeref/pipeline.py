@@ -27,6 +27,10 @@ Interpretations (DESIGN §4)
   recording can be cut into chunks.
 * The flow of step ``l`` uses the tile size ``AlignParams.tile_for_step(l)``: large tiles for
   the noisy step-0 frames, smaller ones later (supplement §8).
+* ``flow_frames="smoothed"`` (not in the paper; a speed option) aligns a Gaussian-smoothed
+  2×2 luma of ``I_l`` (σ = :data:`FLOW_SMOOTHING_SIGMA` plane pixels) instead of the luma of
+  ``D(I_l)``: the U-Net then runs once per output frame (for ``R_L``) instead of ``L + 1``
+  times.  The default, ``"denoised"``, is Fig. 3(b).
 * ``K = 1`` or ``L = 0`` reduces to the denoised TFP ``Ψ[D(I_0)]`` (no flow is computed);
   ``align=False`` uses zero flow (plain accumulation over the support: TFP with a
   ``((K−1)L+1)·W`` window, then ``D`` and Ψ) — for the accuracy-vs-time study.
@@ -59,7 +63,16 @@ from spikeref.stream import SpikeStream
 from spikeref.warp import warp_average, warp_spike_windows
 
 __all__ = ["ReconstructParams", "ReconstructedFrame", "Reconstructor", "reconstruct", "frame_range",
-           "support_planes", "exposure_planes"]
+           "support_planes", "exposure_planes", "FLOW_FRAMES", "FLOW_SMOOTHING_SIGMA", "flow_luma"]
+
+#: What the flow of each step is estimated on: ``"denoised"`` — the 2×2 luma of ``D(I_l)``, as
+#: Fig. 3(b) — or ``"smoothed"`` — the 2×2 luma of ``I_l`` itself, smoothed by a Gaussian.
+FLOW_FRAMES = ("denoised", "smoothed")
+#: σ of the Gaussian of ``flow_frames="smoothed"``, in Bayer-plane pixels.  Chosen on the
+#: benchmark scenes among 0, 0.7, 1 and 1.5 (``scripts/study_flow_frames.py``, docs/results.md,
+#: session 11): 0.7 and 1 tie on the mean PSNR over W/K/L = 10/3/3, 10/5/2, 20/5/2, 20/3/3
+#: (0.01 dB below the denoised flow frames), and 1 loses least at its worst setting (0.09 dB).
+FLOW_SMOOTHING_SIGMA = 1.0
 
 
 @dataclass(frozen=True)
@@ -80,6 +93,11 @@ class ReconstructParams:
         Estimate the flow (True) or use zero flow (False: plain accumulation over the support).
     align_params : AlignParams
         Alignment parameters (:mod:`spikeref.align`).
+    flow_frames : {"denoised", "smoothed"}
+        What each step's flow is estimated on: the luma of the denoised frames ``D(I_l)``
+        (default, the paper's Fig. 3(b): ``L + 1`` denoiser passes per output frame) or a
+        Gaussian-smoothed luma of ``I_l`` (:func:`flow_luma`; one denoiser pass per output
+        frame — a speed option that is not in the paper).
     """
 
     window: int = 10
@@ -88,6 +106,7 @@ class ReconstructParams:
     mode: str = "visible"
     align: bool = True
     align_params: AlignParams = field(default_factory=AlignParams)
+    flow_frames: str = "denoised"
 
     def __post_init__(self):
         from spikeref.denoise.blindspot import MODES
@@ -100,6 +119,8 @@ class ReconstructParams:
             raise ValueError(f"K must be odd (the reference is the middle frame); got {self.K}")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)}; got {self.mode!r}")
+        if self.flow_frames not in FLOW_FRAMES:
+            raise ValueError(f"flow_frames must be one of {', '.join(FLOW_FRAMES)}; got {self.flow_frames!r}")
         if not isinstance(self.align_params, AlignParams):
             raise TypeError(f"align_params must be an AlignParams; got {type(self.align_params).__name__}")
 
@@ -135,6 +156,32 @@ def exposure_planes(window: int, K: int, level: int) -> float:
         c = np.convolve(c, np.ones(K))
     c /= c.sum()
     return float(window / np.sum(c * c))
+
+
+def flow_luma(planes: np.ndarray, sigma: float = FLOW_SMOOTHING_SIGMA) -> np.ndarray:
+    """The image ``flow_frames="smoothed"`` aligns: the 2×2 luma of ``I_l``, Gaussian-smoothed.
+
+    Parameters
+    ----------
+    planes : ndarray ``(4, h, w)``, real
+        Bayer planes of firing rates ``I_l`` (not denoised).
+    sigma : float
+        Standard deviation of the Gaussian, in Bayer-plane pixels (``≥ 0``; 0: no smoothing);
+        the kernel is cut at 4σ and the border is mirrored half-sample symmetrically
+        (``scipy.ndimage``'s ``reflect``).
+
+    Returns
+    -------
+    ndarray ``(h, w) float32``
+    """
+    from scipy.ndimage import gaussian_filter
+
+    if not (np.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"sigma must be a number of plane pixels ≥ 0; got {sigma!r}")
+    y = luma(planes)
+    if sigma == 0:
+        return y
+    return gaussian_filter(y.astype(np.float64), sigma, mode="reflect", truncate=4.0).astype(np.float32)
 
 
 def support_planes(window: int = 10, K: int = 3, L: int = 3) -> int:
@@ -302,10 +349,16 @@ class _State:
         return entry[1]
 
     def luma(self, level: int, k: int) -> np.ndarray:
+        """The image the flow of step ``level`` is estimated on (``flow_frames``)."""
         entry = self.levels[level].get(k)
         if entry is None or entry[2] is None:
-            d = self.denoised(level, k)
-            self.levels[level][k][2] = luma(d)
+            if self.p.flow_frames == "smoothed":
+                planes = self.planes(level, k)
+                with self.timed("align"):
+                    image = flow_luma(planes, FLOW_SMOOTHING_SIGMA)  # the module's value at call time
+            else:
+                image = luma(self.denoised(level, k))
+            self.levels[level][k][2] = image
         return self.levels[level][k][2]
 
     def flows(self, level: int, k: int) -> np.ndarray:
@@ -381,8 +434,8 @@ def _check_align_size(h: int, w: int, p: ReconstructParams) -> None:
 
 
 def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visible", denoiser=None,
-                align: bool = True, align_params: AlignParams | None = None, frames: slice | None = None
-                ) -> Iterator[np.ndarray]:
+                align: bool = True, align_params: AlignParams | None = None, frames: slice | None = None,
+                flow_frames: str = "denoised") -> Iterator[np.ndarray]:
     """Reconstruct colour frames from a spike stream: ``R_L = Ψ[D(I_L)]`` (Eq. 13–15, Fig. 3(b)).
 
     Parameters
@@ -400,6 +453,8 @@ def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visibl
     align_params : AlignParams, optional
     frames : slice, optional
         Frame numbers to produce (default: all, :func:`frame_range`).
+    flow_frames : {"denoised", "smoothed"}
+        See :class:`ReconstructParams` (default ``"denoised"``, the paper's).
 
     Yields
     ------
@@ -410,7 +465,7 @@ def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visibl
 
     if isinstance(stream, np.ndarray):
         stream = as_stream(stream, cfa="RGGB")
-    params = ReconstructParams(window=W, K=K, L=L, mode=mode, align=align,
+    params = ReconstructParams(window=W, K=K, L=L, mode=mode, align=align, flow_frames=flow_frames,
                                align_params=align_params if align_params is not None else AlignParams())
     if frames is not None and (not isinstance(frames, slice) or frames.step not in (None, 1)):
         raise ValueError(f"frames must be a slice a:b of frame numbers without a step; got {frames!r}")

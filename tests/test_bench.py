@@ -17,14 +17,18 @@ from spikeref.stream import SpikeStream
 def test_full_and_quick_grids():
     full = grid_settings(FULL_GRID)
     names = [s.name for s in full]
-    assert len(names) == len(set(names)) == 4 + 26 + 8  # baselines, visible W×K×L×align (L=0 once per W), mixed+blind
+    # baselines; visible W×K×L×(align on × 2 flow frames + off), L=0 once per W: 2 + 2·2·3·3 = 38; mixed+blind
+    assert len(names) == len(set(names)) == 4 + 38 + 8
     assert "ours visible W=20 K=5 L=3 no-align" in names and "ours blind W=10 K=3 L=3" in names
+    assert "ours visible W=20 K=5 L=3 smoothed-flow" in names and "ours visible W=10 L=0" in names
+    assert not any("no-align" in n and "smoothed" in n for n in names)  # no flow, nothing to smooth
+    assert not any(s.mode != "visible" and s.flow_frames != "denoised" for s in full)
     assert "ours blind W=20 K=3 L=3" not in names  # costly modes only along L at the first W, K, align
     quick = [s.name for s in grid_settings(QUICK_GRID)]
     assert quick == ["TFP W=10", "TFP W=100", "TFI", "TFSTP", "ours visible W=10 L=0", "ours visible W=10 K=3 L=1",
                      "ours visible W=10 K=3 L=2", "ours visible W=10 K=3 L=3", "ours visible W=10 K=5 L=3",
-                     "ours visible W=20 K=3 L=3", "ours visible W=10 K=3 L=3 no-align", "ours mixed W=10 L=0",
-                     "ours blind W=10 L=0"]
+                     "ours visible W=20 K=3 L=3", "ours visible W=10 K=3 L=3 no-align",
+                     "ours visible W=10 K=3 L=3 smoothed-flow", "ours mixed W=10 L=0", "ours blind W=10 L=0"]
     only = grid_settings(parse_grid(methods=["tfi", "ours"], modes=["blind"], L=[0, 2]))
     assert [s.name for s in only] == ["TFI", "ours blind W=10 L=0", "ours blind W=10 K=3 L=2"]
 
@@ -36,6 +40,7 @@ def test_full_and_quick_grids():
     ({"K": [4]}, "unknown K 4"),
     ({"L": [4]}, "unknown L 4"),
     ({"align": ["maybe"]}, "unknown align maybe"),
+    ({"flow_frames": ["raw"]}, "unknown flow_frames raw; allowed: denoised, smoothed"),
     ({"frames": 0}, "frames must be an integer in 1…8"),
     ({"methods": ["tfi"], "modes": ["visible"]}, "leaves out 'ours'"),
     ({"W": [10, 10]}, "lists a value twice"),

@@ -125,6 +125,17 @@ def test_reconstruct_chunks_and_resume_equal_one_run(tmp_path, random_weights, c
     assert (tmp_path / "b.mp4").stat().st_size > 1000
 
 
+def test_reconstruct_with_flow_on_smoothed_frames(tmp_path, random_weights, capsys):
+    argv = ["reconstruct", "--exr-dir", str(tmp_path / "s"), "--frames", "3:5", "--weights", str(random_weights)]
+    assert main([*argv, "--flow-frames", "smoothed"]) == 0
+    assert "flow on smoothed frames" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "s").iterdir()) == ["frame_000003.exr", "frame_000004.exr"]
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--flow-frames", "raw"])
+    assert exc.value.code == 2
+    assert "invalid choice: 'raw'" in capsys.readouterr().err
+
+
 def test_resume_recomputes_empty_truncated_and_foreign_frames(tmp_path, random_weights, capsys):
     # What a power loss or a run with other settings can leave: a zero-byte file, half a file, a frame of
     # another size. --resume must not count them as done (nor crash reading them back); it recomputes them.

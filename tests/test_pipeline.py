@@ -10,6 +10,7 @@ from spikeref.pipeline import (
     ReconstructParams,
     Reconstructor,
     exposure_planes,
+    flow_luma,
     frame_range,
     reconstruct,
     support_planes,
@@ -90,8 +91,9 @@ def test_zero_flow_is_weighted_accumulation_over_the_support(sample):
     np.testing.assert_allclose(g.rgb, _tfp_rgb(sample, 50, 30), rtol=1e-5, atol=1e-6)
 
 
-def test_chunks_equal_the_full_run(sample):
-    params = ReconstructParams(window=10, K=3, L=2)
+@pytest.mark.parametrize("flow_frames", ["denoised", "smoothed"])
+def test_chunks_equal_the_full_run(sample, flow_frames):
+    params = ReconstructParams(window=10, K=3, L=2, flow_frames=flow_frames)
     full = {f.index: f.rgb for f in Reconstructor(sample, params, denoiser=identity).frames()}
     for a, b in [(2, 5), (9, 10), (20, 24)]:
         for f in Reconstructor(sample, params, denoiser=identity).frames(a, b):
@@ -149,10 +151,11 @@ def _translating_stream(shift_per_window, window=10, n_windows=9, size=128, seed
     return SpikeStream.from_array(np.concatenate(planes), cfa="RGGB"), tex
 
 
-def test_flow_follows_known_motion():
+@pytest.mark.parametrize("flow_frames", ["denoised", "smoothed"])
+def test_flow_follows_known_motion(flow_frames):
     # content moves +(1, −2) plane pixels per window: F(k, k+i) = i·(1, −2) (alternate[y+dy, x+dx] = reference[y, x])
     stream, _ = _translating_stream((1, -2), n_windows=9)
-    rec = Reconstructor(stream, ReconstructParams(window=10, K=3, L=2), denoiser=identity)
+    rec = Reconstructor(stream, ReconstructParams(window=10, K=3, L=2, flow_frames=flow_frames), denoiser=identity)
     (f,) = list(rec.frames(4, 5, keep_steps=True))
     for (level, i), fl in f.flows.items():
         inner = fl[:, 12:-12, 12:-12]
@@ -196,6 +199,7 @@ def test_mono_stream_gives_mono_frames():
     (dict(K=0), "K must be an integer ≥ 1"),
     (dict(L=-1), "L must be an integer ≥ 0"),
     (dict(mode="fast"), "mode must be one of"),
+    (dict(flow_frames="raw"), "flow_frames must be one of denoised, smoothed; got 'raw'"),
 ])
 def test_bad_params(kwargs, match):
     with pytest.raises(ValueError, match=match):
@@ -257,3 +261,43 @@ def test_single_level_alignment_needs_only_its_tile():
     (f,) = list(Reconstructor(stream, ReconstructParams(window=10, K=3, L=1, align_params=a),
                               denoiser=identity).frames())
     assert f.rgb.shape == (12, 12, 3) and np.all(np.isfinite(f.rgb))
+
+
+def test_smoothed_flow_frames_align_the_smoothed_raw_luma_and_denoise_only_the_output(sample):
+    # flow_frames="smoothed": F_0(k, k+i) aligns flow_luma(I_0(k)) with flow_luma(I_0(k+i)); D runs once per frame
+    from spikeref.align import align
+
+    calls = []
+
+    def blur_like(planes):  # a denoiser that changes the image's structure, so a flow made on D(I) would differ
+        calls.append(1)
+        return np.asarray(planes, np.float32) ** 2
+
+    params = ReconstructParams(window=10, K=3, L=3, flow_frames="smoothed")
+    list(Reconstructor(sample, params, denoiser=blur_like).frames(5, 9))
+    assert len(calls) == 4  # the denoised flow frames would need 4 × (L + 1) = 16 in steady state and more to start
+    (f,) = list(Reconstructor(sample, params, denoiser=blur_like).frames(12, 13, keep_steps=True))
+
+    def i0(k):
+        return bayer_planes(accumulate(sample, 10, start=10 * k, count=1)[0])
+
+    for i in (-1, 1):
+        expect = align(flow_luma(i0(12)), flow_luma(i0(12 + i)), step=0, params=params.align_params)
+        np.testing.assert_array_equal(f.flows[(0, i)], expect)
+    denoised = ReconstructParams(window=10, K=3, L=3)
+    (g,) = list(Reconstructor(sample, denoised, denoiser=blur_like).frames(12, 13, keep_steps=True))
+    assert not np.array_equal(g.flows[(0, 1)], f.flows[(0, 1)])
+
+
+def test_flow_luma():
+    planes = np.stack([np.full((20, 30), v, np.float32) for v in (0.1, 0.2, 0.3, 0.4)])
+    np.testing.assert_allclose(flow_luma(planes), 0.25, rtol=1e-6)  # a flat image stays flat (mirrored border)
+    rng = np.random.default_rng(0)
+    noisy = rng.random((4, 40, 40)).astype(np.float32)
+    out = flow_luma(noisy)
+    assert out.shape == (40, 40) and out.dtype == np.float32
+    assert np.std(out) < 0.5 * np.std(noisy.mean(axis=0))  # σ = 1 px averages ~12 pixels of white noise
+    np.testing.assert_array_equal(flow_luma(noisy, 0), noisy.mean(axis=0, dtype=np.float64).astype(np.float32))
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="sigma must be a number of plane pixels ≥ 0"):
+            flow_luma(noisy, bad)

@@ -43,7 +43,7 @@ def summarize(rows: list[dict]) -> list[dict]:
     for name in order:
         rs = [r for r in rows if r["setting"] == name]
         first = rs[0]
-        row = {k: first[k] for k in ("setting", "method", "W", "K", "L", "mode", "align")}
+        row = {k: first.get(k, "") for k in ("setting", "method", "W", "K", "L", "mode", "align", "flow_frames")}
         for m in (*METRICS, "seconds_per_frame", "warmup_s"):
             row[m] = float(np.mean([r[m] for r in rs]))
         row["per_scene_psnr"] = {r["scene"]: r["psnr"] for r in rs}
@@ -99,7 +99,7 @@ def markdown_report(result: dict, summary: list[dict], meta: dict) -> str:
                 lines.append(f"- vs {ref}: {ours['psnr'] - b['psnr']:+.2f} dB PSNR, {ours['ssim'] - b['ssim']:+.3f} "
                              f"SSIM, {ours['pu21_psnr'] - b['pu21_psnr']:+.2f} dB PU21-PSNR (paper: {paper}).")
         steps = [r for r in summary if r["method"] == "ours" and r["mode"] == "visible" and r["align"] in ("on", "")
-                 and r["W"] == ours["W"] and (r["L"] == 0 or r["K"] == 3)]
+                 and r["flow_frames"] in ("denoised", "") and r["W"] == ours["W"] and (r["L"] == 0 or r["K"] == 3)]
         steps.sort(key=lambda r: r["L"])
         if len(steps) > 1:
             gains = [f"L={b['L']}: {b['psnr'] - a['psnr']:+.2f} dB for "
@@ -131,7 +131,8 @@ def plot_pareto(summary: list[dict], path: Path) -> bool:
         front = pareto_front(cost, score)
         for r, c, s in zip(summary, cost, score, strict=True):
             col = colours.get(r["method"]) or mode_colours[r["mode"]]
-            marker = "o" if r["method"] != "ours" else ("s" if r["align"] == "off" else "^")
+            marker = "o" if r["method"] != "ours" else \
+                ("s" if r["align"] == "off" else "D" if r["flow_frames"] == "smoothed" else "^")
             ax.scatter(c, s, color=col, marker=marker, s=28, alpha=0.8)
         order = np.argsort(cost[front])
         ax.step(cost[front][order], score[front][order], where="post", color="k", lw=1, label="Pareto front")
@@ -146,6 +147,7 @@ def plot_pareto(summary: list[dict], path: Path) -> bool:
     handles = [plt.Line2D([], [], color=c, marker="o", ls="", label=k.upper()) for k, c in colours.items()]
     handles += [plt.Line2D([], [], color=c, marker="^", ls="", label=f"ours {k}") for k, c in mode_colours.items()]
     handles += [plt.Line2D([], [], color="k", marker="s", ls="", label="ours, no alignment"),
+                plt.Line2D([], [], color="k", marker="D", ls="", label="ours, flow on smoothed frames"),
                 plt.Line2D([], [], color="k", lw=1, label="Pareto front")]
     axes[0].legend(handles=handles, fontsize=7, loc="lower right")
     fig.suptitle("What accuracy costs in time (mean over the benchmark scenes)")

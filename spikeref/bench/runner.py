@@ -164,7 +164,7 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
         ks = [(t - w // 2 - offset) // w for t in centres]
         extra = {} if align_params is None else {"align_params": align_params}
         params = ReconstructParams(window=w, K=setting.K, L=setting.L, mode=setting.mode, align=setting.align,
-                                   **extra)
+                                   flow_frames=setting.flow_frames, **extra)
         rec = Reconstructor(view, params, denoiser)
         wanted = set(ks)
         t0 = time.perf_counter()
@@ -255,6 +255,7 @@ def run_bench(grid: BenchGrid, seed: int = 0, denoiser=None, progress: bool = Tr
                        "W": s.window, "K": s.K if s.method == "ours" else "", "L": s.L if s.method == "ours" else "",
                        "mode": s.mode if s.method == "ours" else "",
                        "align": ("on" if s.align else "off") if s.method == "ours" else "",
+                       "flow_frames": s.flow_frames if s.method == "ours" and s.align and s.L else "",
                        **{m: float(np.mean([sc_[m] for sc_ in scores])) for m in METRICS},
                        **timing, "frames": len(frames), "height": sc.stream.height, "width": sc.stream.width}
                 rows.append(row)

@@ -1,17 +1,19 @@
 """The methods and settings `spikeref bench` compares, and the grids it runs.
 
 A :class:`Setting` names one way of making a frame: a baseline (TFP with its window, TFI,
-TFSTP) or the progressive warping with ``W, K, L``, the denoiser mode and alignment on or
-off.  A :class:`BenchGrid` lists which values each axis takes; :func:`grid_settings`
-expands it:
+TFSTP) or the progressive warping with ``W, K, L``, the denoiser mode, alignment on or
+off, and what the flow is estimated on (``flow_frames``: the denoised frames, as the paper, or
+the smoothed frames of the speed option).  A :class:`BenchGrid` lists which values each
+axis takes; :func:`grid_settings` expands it:
 
 * baselines as listed;
-* the method in ``visible`` mode on the whole product ``W × K × L × align`` (``L = 0`` has
-  no neighbours, so ``K`` and alignment do not apply and it appears once per ``W``) — or,
-  with ``visible_product=False`` (the quick grid), along the ``L`` axis at the first
-  ``W, K, align`` plus each other axis varied alone at the largest ``L``;
+* the method in ``visible`` mode on the whole product ``W × K × L × align × flow_frames``
+  (``L = 0`` has no neighbours, so ``K``, alignment and flow frames do not apply and it
+  appears once per ``W``; without alignment there is no flow, so it appears once per
+  ``W, K, L``) — or, with ``visible_product=False`` (the quick grid), along the ``L`` axis at
+  the first ``W, K, align, flow_frames`` plus each other axis varied alone at the largest ``L``;
 * the costly modes (``mixed`` runs 17 network passes per frame, ``blind`` 16) along
-  ``expensive_L`` at the first ``W, K, align``.
+  ``expensive_L`` at the first ``W, K, align, flow_frames``.
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ __all__ = ["BASELINES", "MODES", "AXES", "Setting", "BenchGrid", "FULL_GRID", "Q
 BASELINES = {"tfp10": ("tfp", 10), "tfp100": ("tfp", 100), "tfi": ("tfi", 0), "tfstp": ("tfstp", 0)}
 MODES = ("visible", "mixed", "blind")
 #: The values each axis of the method may take in the benchmark.
-AXES = {"W": (10, 20), "K": (3, 5), "L": (0, 1, 2, 3), "align": (True, False)}
+AXES = {"W": (10, 20), "K": (3, 5), "L": (0, 1, 2, 3), "align": (True, False),
+        "flow_frames": ("denoised", "smoothed")}
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,8 @@ class Setting:
         Denoiser inference mode of the method.
     align : bool
         Whether the method estimates flow (False: zero flow, plain accumulation).
+    flow_frames : {"denoised", "smoothed"}
+        What the flow is estimated on (:class:`~spikeref.pipeline.ReconstructParams`).
     """
 
     method: str
@@ -51,6 +56,7 @@ class Setting:
     L: int = 3
     mode: str = "visible"
     align: bool = True
+    flow_frames: str = "denoised"
 
     @property
     def name(self) -> str:
@@ -60,7 +66,10 @@ class Setting:
             return self.method.upper()
         if self.L == 0:
             return f"ours {self.mode} W={self.window} L=0"
-        return f"ours {self.mode} W={self.window} K={self.K} L={self.L}" + ("" if self.align else " no-align")
+        suffix = "" if self.align else " no-align"
+        if self.align and self.flow_frames != "denoised":
+            suffix = f" {self.flow_frames}-flow"
+        return f"ours {self.mode} W={self.window} K={self.K} L={self.L}" + suffix
 
 
 @dataclass(frozen=True)
@@ -73,6 +82,7 @@ class BenchGrid:
     K: tuple = AXES["K"]
     L: tuple = AXES["L"]
     align: tuple = AXES["align"]
+    flow_frames: tuple = AXES["flow_frames"]
     expensive_L: tuple = AXES["L"]
     visible_product: bool = True
     #: scored frames per scene (spaced 20 planes apart, centred in the recording)
@@ -82,7 +92,7 @@ class BenchGrid:
     def __post_init__(self):
         _check_values("methods", self.baselines, tuple(BASELINES))
         _check_values("modes", self.modes, MODES)
-        for axis in ("W", "K", "L", "align"):
+        for axis in ("W", "K", "L", "align", "flow_frames"):
             _check_values(axis, getattr(self, axis), AXES[axis])
             if not getattr(self, axis):
                 raise ValueError(f"{axis} needs at least one value (allowed: {_fmt(AXES[axis])})")
@@ -105,9 +115,10 @@ def _check_values(name: str, values, allowed) -> None:
         raise ValueError(f"{name} lists a value twice: {_fmt(values)}")
 
 
-#: Every axis in full (`spikeref bench`): 4 baselines + 26 visible + 8 mixed/blind settings.
+#: Every axis in full (`spikeref bench`): 4 baselines + 38 visible + 8 mixed/blind settings.
 FULL_GRID = BenchGrid()
-#: `spikeref bench --quick`: the L axis, then K = 5, W = 20 and no alignment one at a time at L = 3;
+#: `spikeref bench --quick`: the L axis, then K = 5, W = 20, no alignment and smoothed flow frames one
+#: at a time at L = 3;
 #: mixed and blind at L = 0 only; two scored frames per scene.
 QUICK_GRID = BenchGrid(expensive_L=(0,), visible_product=False, frames=2)
 
@@ -118,25 +129,27 @@ def grid_settings(grid: BenchGrid) -> list[Setting]:
     for b in grid.baselines:
         method, window = BASELINES[b]
         out.append(Setting(method, window=window))
-    w0, k0, a0 = grid.W[0], grid.K[0], grid.align[0]
+    w0, k0, a0, f0 = grid.W[0], grid.K[0], grid.align[0], grid.flow_frames[0]
 
-    def ours(mode, w, k, level, a):
-        return Setting("ours", window=w, K=k, L=level, mode=mode, align=a) if level else \
-            Setting("ours", window=w, K=3, L=0, mode=mode, align=True)
+    def ours(mode, w, k, level, a, f):
+        if not level:
+            return Setting("ours", window=w, K=3, L=0, mode=mode, align=True)
+        return Setting("ours", window=w, K=k, L=level, mode=mode, align=a, flow_frames=f if a else "denoised")
 
     for mode in grid.modes:
         if mode == "visible":
             if grid.visible_product:
-                cand = [ours(mode, w, k, level, a) for w in grid.W for level in grid.L for k in grid.K
-                        for a in grid.align]
+                cand = [ours(mode, w, k, level, a, f) for w in grid.W for level in grid.L for k in grid.K
+                        for a in grid.align for f in grid.flow_frames]
             else:
-                cand = [ours(mode, w0, k0, level, a0) for level in grid.L]
+                cand = [ours(mode, w0, k0, level, a0, f0) for level in grid.L]
                 top = max(grid.L)
-                cand += [ours(mode, w0, k, top, a0) for k in grid.K[1:]]
-                cand += [ours(mode, w, k0, top, a0) for w in grid.W[1:]]
-                cand += [ours(mode, w0, k0, top, a) for a in grid.align[1:]]
+                cand += [ours(mode, w0, k, top, a0, f0) for k in grid.K[1:]]
+                cand += [ours(mode, w, k0, top, a0, f0) for w in grid.W[1:]]
+                cand += [ours(mode, w0, k0, top, a, f0) for a in grid.align[1:]]
+                cand += [ours(mode, w0, k0, top, True, f) for f in grid.flow_frames[1:]]
         else:
-            cand = [ours(mode, w0, k0, level, a0) for level in grid.expensive_L]
+            cand = [ours(mode, w0, k0, level, a0, f0) for level in grid.expensive_L]
         for s in cand:
             if s not in out:
                 out.append(s)
@@ -144,11 +157,12 @@ def grid_settings(grid: BenchGrid) -> list[Setting]:
 
 
 def parse_grid(quick: bool = False, methods=None, modes=None, W=None, K=None, L=None, align=None,
-               frames=None, scenes=None) -> BenchGrid:
+               frames=None, scenes=None, flow_frames=None) -> BenchGrid:
     """Build a grid from the command line: the full or quick grid with any axis replaced.
 
     ``methods`` holds baseline names (``tfp10, tfp100, tfi, tfstp``) and/or ``ours``;
-    without ``ours`` the method is not run.  ``align`` holds ``"on"``/``"off"``.
+    without ``ours`` the method is not run.  ``align`` holds ``"on"``/``"off"``, ``flow_frames``
+    ``"denoised"``/``"smoothed"``.
     Unknown names raise ``ValueError`` naming the option and the allowed values.
     """
     base = QUICK_GRID if quick else FULL_GRID
@@ -173,6 +187,8 @@ def parse_grid(quick: bool = False, methods=None, modes=None, W=None, K=None, L=
         if bad:
             raise ValueError(f"unknown align {', '.join(bad)}; allowed: on, off")
         kw["align"] = tuple(a == "on" for a in align)
+    if flow_frames is not None:
+        kw["flow_frames"] = tuple(flow_frames)
     if frames is not None:
         kw["frames"] = frames
     if scenes is not None:
