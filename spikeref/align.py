@@ -210,6 +210,18 @@ def _distance(ref, alt, oy, ox, tile, dy, dx, l2):
     """Σ over the tile at ``(oy, ox)`` of ``|ref(p) − alt(p + (dy, dx))|`` (or its square), clamped samples."""
     h, w = alt.shape
     total = 0.0
+    if oy + dy >= 0 and oy + dy + tile <= h and ox + dx >= 0 and ox + dx + tile <= w:
+        # the whole shifted tile is inside: no clamping, the same sums in the same order
+        for y in range(oy, oy + tile):
+            r = ref[y, ox:ox + tile]
+            a = alt[y + dy, ox + dx:ox + dx + tile]
+            for x in range(tile):
+                d = np.float64(r[x]) - np.float64(a[x])
+                if l2:
+                    total += d * d
+                else:
+                    total += abs(d)
+        return total
     for y in range(oy, oy + tile):
         yy = min(max(y + dy, 0), h - 1)
         for x in range(ox, ox + tile):
