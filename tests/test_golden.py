@@ -62,8 +62,8 @@ def test_fast_function_matches_golden(name):
 def test_kernels_match_golden_with_jit_disabled():
     """NUMBA_DISABLE_JIT=1 runs the kernels as Python: they must still meet the golden files.
 
-    Every case but the end-to-end pipeline (``jit_disabled_check=False``: its U-Net passes would
-    take tens of minutes as Python; each kernel it composes has its own case here).
+    Every case but the two end-to-end pipelines (``jit_disabled_check=False``: their U-Net passes
+    would take tens of minutes as Python; each kernel they compose has its own case here).
     """
     code = (
         "import sys; sys.path.insert(0, %r)\n"

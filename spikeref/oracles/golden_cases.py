@@ -50,9 +50,9 @@ class GoldenCase:
     rtol: float = 0.0
     atol: float = 0.0
     params: dict = field(default_factory=dict)
-    #: Run also with ``NUMBA_DISABLE_JIT=1`` in ``tests/test_golden.py``. False only for the end-to-end
-    #: pipeline: as Python its U-Net passes take tens of minutes, and every kernel it composes is
-    #: checked without the JIT by its own case.
+    #: Run also with ``NUMBA_DISABLE_JIT=1`` in ``tests/test_golden.py``. False only for the two
+    #: end-to-end pipelines: as Python their U-Net passes take tens of minutes, and every kernel they
+    #: compose is checked without the JIT by its own case.
     jit_disabled_check: bool = True
 
 
@@ -325,6 +325,58 @@ def _pipeline_oracle(i):
     return {k: v.astype(np.float32) for k, v in out.items()}  # stored as float32: the file stays small
 
 
+def _pipeline_smoothed_fast(i):
+    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.denoise.unet import UNet
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+    from spikeref.stream import SpikeStream
+
+    c = _PIPELINE
+    params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
+                               flow_frames="smoothed")
+    net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
+    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net))
+    frames = list(rec.frames(c["frames"][0], c["frames"][-1] + 1, keep_steps=True))  # keep_steps: for the flows
+    offsets = range(-(c["K"] // 2), c["K"] // 2 + 1)
+    flows = [[[f.flows[(level, o)] if o else np.zeros_like(f.flows[(level, 1)]) for o in offsets]
+              for level in range(c["L"])] for f in frames]
+    return {"rgb": np.stack([f.rgb for f in frames]), "flows": np.array(flows)}
+
+
+def _pipeline_smoothed_oracle(i):
+    from spikeref.oracles.pipeline import reconstruct_oracle
+
+    c = _PIPELINE
+    out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], _unet_params(i),
+                             _pipeline_align_params(), c["frames"], flow_frames="smoothed", flow_sigma=1.0,
+                             keep_steps=False)
+    return {k: v.astype(np.float32) for k, v in out.items()}
+
+
+def _inputs_flow_luma():
+    """Four 9×13 Bayer planes of random rates (float32): small enough that σ = 1.5 mirrors twice."""
+    return {"planes": np.random.default_rng(15).random((4, 9, 13)).astype(np.float32)}
+
+
+_FLOW_SIGMAS = (0.0, 0.7, 1.0, 1.5)
+
+
+def _flow_luma_outputs(fn, i):
+    return {f"sigma_{s:g}": fn(i["planes"], s) for s in _FLOW_SIGMAS}
+
+
+def _flow_luma_oracle(i):
+    from spikeref.oracles.pipeline import flow_luma_oracle
+
+    return _flow_luma_outputs(flow_luma_oracle, i)
+
+
+def _flow_luma_fast(i):
+    from spikeref.pipeline import flow_luma
+
+    return _flow_luma_outputs(flow_luma, i)
+
+
 def _inputs_spike_train():
     rng = np.random.default_rng(6)
     rates = np.array([[0.0, 0.004, 0.05], [0.2, 0.5, 1.0]])
@@ -532,6 +584,31 @@ CASES: list[GoldenCase] = [
         rtol=1e-4, atol=1e-5,
         params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible", "shrink": True,
                 "input_domain": "count", "exposure": "W at l=0, W/Σc² at l≥1 (spikeref.pipeline.exposure_planes)",
+                "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
+        jit_disabled_check=False,
+    ),
+    GoldenCase(
+        "flow_luma", "— (not in the paper; the flow frames of flow_frames=\"smoothed\")",
+        "spikeref.pipeline.flow_luma", "spikeref.oracles.pipeline.flow_luma_oracle",
+        "The smoothed 2×2 luma that flow_frames=\"smoothed\" aligns: the mean of four 9×13 Bayer planes "
+        "(rounded to float32), then a Gaussian of σ = 0, 0.7, 1 (the pipeline's value), 1.5 plane pixels along "
+        "rows then columns: taps exp(−m²/2σ²), m = −r…r, r = ⌊4σ + ½⌋, normalised; half-sample symmetric "
+        "border; float64 arithmetic, float32 result.",
+        _inputs_flow_luma,
+        _flow_luma_oracle, _flow_luma_fast,
+        rtol=1e-6, atol=1e-7, params={"sigmas": list(_FLOW_SIGMAS), "truncate": 4.0, "border": "reflect"},
+    ),
+    GoldenCase(
+        "pipeline_frames_smoothed_flow", "Eq. 13–15 with flow_frames=\"smoothed\" (not in the paper)",
+        "spikeref.pipeline.Reconstructor (ReconstructParams(flow_frames=\"smoothed\"))",
+        "spikeref.oracles.pipeline.reconstruct_oracle (flow_frames=\"smoothed\")",
+        "The inputs and settings of pipeline_frames, with each step's flow estimated on flow_luma(I_l) (σ = 1 "
+        "plane pixel) instead of the luma of D(I_l): R_L (rgb) and the flows F_l(k, k+i) of frames 3 and 4. "
+        "The oracle computes in float64; its outputs are stored as float32.",
+        _inputs_pipeline, _pipeline_smoothed_oracle, _pipeline_smoothed_fast,
+        rtol=1e-4, atol=1e-5,
+        params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible", "shrink": True,
+                "input_domain": "count", "flow_frames": "smoothed", "flow_sigma": 1.0,
                 "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
         jit_disabled_check=False,
     ),

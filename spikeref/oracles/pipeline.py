@@ -17,7 +17,9 @@ Definitions (DESIGN §4; ``h = (K − 1)/2``; window ``j`` = planes ``[jW, (j+1)
   is the ``l``-fold convolution of ``K`` equal weights normalised to sum 1. ``f`` is the
   U-Net on counts, in the visible mode.
 * ``F_l(j, j+i)``: HDR+ alignment, at step ``l``, of ``luma(D_l(j))`` (the mean of the four
-  planes) against ``luma(D_l(j+i))``; zero for ``i = 0``.
+  planes) against ``luma(D_l(j+i))``; zero for ``i = 0``.  With ``flow_frames="smoothed"``
+  (the speed option, not in the paper) it aligns :func:`flow_luma_oracle` of ``I_l(j)`` and
+  ``I_l(j+i)`` instead, and ``D`` is needed only for the output.
 * ``I_1(j)``: Eq. 14 over the spike planes of windows ``j−h … j+h``, each warped by
   ``F_0(j, j+i)``.
 * ``I_l(j)``, ``l ≥ 2``: Eq. 15 over ``I_{l−1}(j+i)`` warped by ``F_{l−1}(j, j+i)``.
@@ -35,7 +37,7 @@ from spikeref.oracles.shrinkage import shrink_residual_oracle
 from spikeref.oracles.unet import unet_forward_oracle
 from spikeref.oracles.warp import eq14_oracle, eq15_oracle
 
-__all__ = ["exposure_oracle", "reconstruct_oracle"]
+__all__ = ["exposure_oracle", "flow_luma_oracle", "reconstruct_oracle"]
 
 
 def exposure_oracle(window, K, level):
@@ -52,6 +54,39 @@ def exposure_oracle(window, K, level):
     return window / sum(c * c for c in weights)
 
 
+def flow_luma_oracle(planes, sigma):
+    """The smoothed luma of ``flow_frames="smoothed"``, pixel by pixel.
+
+    ``y = (P_0 + P_1 + P_2 + P_3) / 4`` (rounded to float32, as the luma the alignment sees),
+    then a Gaussian of standard deviation ``sigma`` along the rows and then along the columns:
+    taps ``g_m ∝ exp(−m² / 2σ²)`` for ``m = −r … r``, ``r = ⌊4σ + ½⌋``, normalised to sum 1; a
+    sample outside the image is mirrored half-sample symmetrically (``−1 → 0``, ``n → n − 1``).
+    Float64 arithmetic, float32 result.  ``sigma = 0`` returns ``y``.
+    """
+    y = np.mean(np.asarray(planes, dtype=np.float64), axis=0).astype(np.float32).astype(np.float64)
+    if sigma == 0:
+        return y.astype(np.float32)
+    r = int(4.0 * sigma + 0.5)
+    taps = [np.exp(-m * m / (2.0 * sigma * sigma)) for m in range(-r, r + 1)]
+    total = sum(taps)
+    taps = [g / total for g in taps]
+
+    def mirror(i, n):
+        while i < 0 or i >= n:
+            i = -i - 1 if i < 0 else 2 * n - i - 1
+        return i
+
+    def smooth_rows(img):  # along the last axis
+        rows, cols = img.shape
+        out = np.zeros_like(img)
+        for a in range(rows):
+            for b in range(cols):
+                out[a, b] = sum(taps[m + r] * img[a, mirror(b + m, cols)] for m in range(-r, r + 1))
+        return out
+
+    return smooth_rows(smooth_rows(y).T).T.astype(np.float32)
+
+
 def _mosaic(planes):
     _, h, w = planes.shape
     out = np.zeros((2 * h, 2 * w), dtype=planes.dtype)
@@ -60,7 +95,8 @@ def _mosaic(planes):
     return out
 
 
-def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, frames, depth=5, slope=0.1):
+def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, frames, depth=5, slope=0.1,
+                       flow_frames="denoised", flow_sigma=1.0, keep_steps=True):
     """Frames ``R_L(k)``, every step ``R_l(k)`` and the flows ``F_l(k, k+i)`` for ``k`` in ``frames``.
 
     Parameters
@@ -74,11 +110,17 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
     align_params : AlignParams
     frames : sequence of int
         Output frame numbers; each needs windows ``k − L h … k + L h`` inside the stream.
+    flow_frames : {"denoised", "smoothed"}
+        What the flows align: ``luma(D_l)`` (Fig. 3(b)) or ``flow_luma_oracle(I_l, flow_sigma)``.
+    keep_steps : bool
+        Also return every ``R_l`` (``steps``); without it ``D`` runs only for the outputs when
+        ``flow_frames="smoothed"``.
 
     Returns
     -------
     dict
-        ``rgb (n, H, W, 3)``, ``steps (n, L+1, H, W, 3)`` and ``flows (n, L, K, 2, h, w)``, all float64.
+        ``rgb (n, H, W, 3)``, ``steps (n, L+1, H, W, 3)`` (with ``keep_steps``) and
+        ``flows (n, L, K, 2, h, w)``, all float64.
     """
     h = (K - 1) // 2
     planes_memo, denoised_memo, flow_memo = {}, {}, {}
@@ -118,13 +160,20 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
         if key not in flow_memo:
             if j == j2:
                 flow_memo[key] = np.zeros((2, spikes.shape[1] // 2, spikes.shape[2] // 2))
+            elif flow_frames == "smoothed":
+                flow_memo[key] = align_oracle(flow_luma_oracle(I_l(level, j), flow_sigma),
+                                              flow_luma_oracle(I_l(level, j2), flow_sigma), level, align_params)
             else:
                 flow_memo[key] = align_oracle(luma(D_l(level, j)), luma(D_l(level, j2)), level, align_params)
         return flow_memo[key]
 
     rgb, steps, flows = [], [], []
     for k in frames:
-        steps.append([demosaic_bilinear_oracle(_mosaic(D_l(level, k)), cfa) for level in range(L + 1)])
-        rgb.append(steps[-1][-1])
+        if keep_steps:
+            steps.append([demosaic_bilinear_oracle(_mosaic(D_l(level, k)), cfa) for level in range(L + 1)])
+        rgb.append(demosaic_bilinear_oracle(_mosaic(D_l(L, k)), cfa))
         flows.append([[F_l(level, k, k + i) for i in range(-h, h + 1)] for level in range(L)])
-    return {"rgb": np.array(rgb), "steps": np.array(steps), "flows": np.array(flows, dtype=np.float64)}
+    out = {"rgb": np.array(rgb), "flows": np.array(flows, dtype=np.float64)}
+    if keep_steps:
+        out["steps"] = np.array(steps)
+    return out
