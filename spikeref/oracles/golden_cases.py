@@ -297,14 +297,15 @@ def _pipeline_align_params():
     return AlignParams(**_PIPELINE["align"])
 
 
-def _pipeline_fast(i):
+def _pipeline_fast(i, flow_frames="denoised"):
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.denoise.unet import UNet
     from spikeref.pipeline import ReconstructParams, Reconstructor
     from spikeref.stream import SpikeStream
 
     c = _PIPELINE
-    params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params())
+    params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
+                               flow_frames=flow_frames)
     net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
     rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net))
     frames = list(rec.frames(c["frames"][0], c["frames"][-1] + 1, keep_steps=True))
@@ -326,21 +327,8 @@ def _pipeline_oracle(i):
 
 
 def _pipeline_smoothed_fast(i):
-    from spikeref.denoise.denoiser import Denoiser
-    from spikeref.denoise.unet import UNet
-    from spikeref.pipeline import ReconstructParams, Reconstructor
-    from spikeref.stream import SpikeStream
-
-    c = _PIPELINE
-    params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
-                               flow_frames="smoothed")
-    net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
-    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net))
-    frames = list(rec.frames(c["frames"][0], c["frames"][-1] + 1, keep_steps=True))  # keep_steps: for the flows
-    offsets = range(-(c["K"] // 2), c["K"] // 2 + 1)
-    flows = [[[f.flows[(level, o)] if o else np.zeros_like(f.flows[(level, 1)]) for o in offsets]
-              for level in range(c["L"])] for f in frames]
-    return {"rgb": np.stack([f.rgb for f in frames]), "flows": np.array(flows)}
+    out = _pipeline_fast(i, flow_frames="smoothed")  # keep_steps there: the flows come with the steps
+    return {"rgb": out["rgb"], "flows": out["flows"]}
 
 
 def _pipeline_smoothed_oracle(i):

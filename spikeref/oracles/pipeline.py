@@ -169,9 +169,11 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
 
     rgb, steps, flows = [], [], []
     for k in frames:
+        levels = range(L + 1) if keep_steps else [L]
+        frame_steps = [demosaic_bilinear_oracle(_mosaic(D_l(level, k)), cfa) for level in levels]
         if keep_steps:
-            steps.append([demosaic_bilinear_oracle(_mosaic(D_l(level, k)), cfa) for level in range(L + 1)])
-        rgb.append(demosaic_bilinear_oracle(_mosaic(D_l(L, k)), cfa))
+            steps.append(frame_steps)
+        rgb.append(frame_steps[-1])
         flows.append([[F_l(level, k, k + i) for i in range(-h, h + 1)] for level in range(L)])
     out = {"rgb": np.array(rgb), "flows": np.array(flows, dtype=np.float64)}
     if keep_steps:
