@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spikeref.bench import (FULL_GRID, QUICK_GRID, Setting, bench_scenes, grid_settings, parse_grid, pareto_front,
-                            run_setting, score_centres)
+from spikeref.bench import (BENCH_VERSION, FULL_GRID, QUICK_GRID, Setting, bench_scenes, grid_settings, parse_grid,
+                            pareto_front, run_setting, score_centres)
 from spikeref.bench.report import contact_sheet, summarize
 from spikeref.cli import main
 from spikeref.stream import SpikeStream
@@ -52,9 +52,9 @@ def test_bad_grid_options(kw, match):
 
 def test_scenes_are_versioned_and_named():
     keys = [s.key for s in bench_scenes()]
-    assert keys == ["static", "translation", "fan", "hdr", "low_light"]
+    assert keys == ["static", "translation", "fan", "hdr", "low_light", "astronaut_pan", "coffee_spin", "occlusion"]
     for s in bench_scenes():
-        assert "set version 1" in s.path.read_text() and s.scene.effects  # realistic noise in every scene
+        assert f"set version {BENCH_VERSION}" in s.path.read_text() and s.scene.effects  # realistic noise everywhere
     with pytest.raises(ValueError, match="unknown scene moon; allowed: static, translation"):
         bench_scenes(["moon"])
 
@@ -145,7 +145,7 @@ def test_cli_bench_small_run_writes_every_output(tmp_path, capsys):
     assert [(r["scene"], r["setting"]) for r in rows] == [
         (s, n) for s in ("static", "hdr") for n in ("TFP W=10", "TFP W=100", "ours visible W=10 L=0")]
     for r in rows:
-        assert r["bench_version"] == "1" and float(r["seconds_per_frame"]) > 0
+        assert r["bench_version"] == str(BENCH_VERSION) and float(r["seconds_per_frame"]) > 0
         assert np.isfinite(float(r["psnr"])) and 0 < float(r["ssim"]) <= 1 and float(r["pu21_psnr"]) > 0
     by = {(r["scene"], r["setting"]): float(r["psnr"]) for r in rows}
     assert by[("static", "TFP W=100")] > by[("static", "TFP W=10")] + 5  # a static scene rewards long windows

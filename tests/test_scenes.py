@@ -26,6 +26,12 @@ def _small(kind, h=16, w=24):
     if kind == "video":
         frames = np.random.default_rng(0).random((3, h, w, 3), dtype=np.float32) * 0.5
         return VideoFrames(frames=frames, fps=1000.0)
+    if kind == "image":
+        from spikeref.simulate.motion import Motion
+
+        image = np.random.default_rng(0).random((h + 6, w + 4, 3), dtype=np.float32) * 0.9
+        return CONTENT_TYPES[kind](image=image, height=h, width=w, motion=Motion(velocity=(900.0, 300.0),
+                                                                                  rotation=50.0))
     return CONTENT_TYPES[kind](height=h, width=w)
 
 
@@ -398,7 +404,7 @@ def test_scene_errors_name_the_field(change, message):
 
 def test_scene_file_errors(tmp_path):
     with pytest.raises(ValueError, match="content.type must be one of uniform, color_chart, translating_texture, "
-                                         "fan, hdr_lamp, video; got 'sunset'"):
+                                         "fan, hdr_lamp, video, image; got 'sunset'"):
         scene_from_dict({"planes": 1, "content": {"type": "sunset"}})
     with pytest.raises(ValueError, match=r"a \[content\] table is required"):
         scene_from_dict({"planes": 1})
@@ -453,3 +459,96 @@ def test_scene_defaults_and_properties():
     assert np.array_equal(scene.radiance([1.0]), content.radiance([1.0]))
     with pytest.raises(TypeError):
         TranslatingTexture(8, 10)  # keyword-only: sizes cannot be swapped by position
+
+
+# ----------------------------------------------------------------------------- image content
+def _image_scene_file(tmp_path, extra=""):
+    import imageio.v3 as iio
+
+    rng = np.random.default_rng(5)
+    iio.imwrite(tmp_path / "photo.png", (rng.random((40, 50, 3)) * 255).astype(np.uint8))
+    path = tmp_path / "photo.toml"
+    path.write_text(f"""
+name = "photo"
+planes = 30
+[content]
+type = "image"
+path = "photo.png"
+height = 16
+width = 20
+brightness = 0.4
+[content.motion]
+velocity = [2000.0, 0.0]
+{extra}
+""")
+    return path
+
+
+def test_image_scene_reads_a_photograph_and_round_trips(tmp_path):
+    from spikeref.simulate.scenes import ImageMotion, scene_from_dict, scene_to_dict
+    from spikeref.tonemap import srgb_decode
+
+    scene = load_scene(_image_scene_file(tmp_path))
+    c = scene.content
+    assert isinstance(c, ImageMotion) and (c.height, c.width) == (16, 20) and c.image.shape == (40, 50, 3)
+    assert c.origin == (15.0, 12.0)  # the view is centred on the photograph
+    import imageio.v3 as iio
+
+    raw = iio.imread(tmp_path / "photo.png")
+    np.testing.assert_allclose(c.image, srgb_decode(raw / 255.0) * 0.4, rtol=1e-5, atol=1e-6)
+    # at t = 0 the view is the centred crop of the photograph; 10 readouts later it moved 1 px right
+    r = c.radiance([0.0, 10.0])
+    np.testing.assert_allclose(r[0], c.image[12:28, 15:35], atol=1e-6)
+    np.testing.assert_allclose(r[1][:, 1:], c.image[12:28, 15:34], atol=1e-6)
+    again = scene_from_dict(scene_to_dict(scene))
+    assert again == scene and np.array_equal(again.content.image, c.image)
+
+
+def test_image_scene_with_foreground_round_trips(tmp_path):
+    from spikeref.simulate.scenes import scene_from_dict, scene_to_dict
+
+    path = _image_scene_file(tmp_path, """
+[content.foreground]
+path = "photo.png"
+scale = 0.5
+radius = 5.0
+center = [6.0, 8.0]
+[content.foreground.motion]
+velocity = [-3000.0, 1000.0]
+""")
+    scene = load_scene(path)
+    c = scene.content
+    assert c.fg_image.shape == (20, 25, 3) and c.fg_radius == 5.0 and c.fg_motion.center == (6.0, 8.0)
+    assert scene_from_dict(scene_to_dict(scene)) == scene
+
+
+@pytest.mark.parametrize("extra, match", [
+    ("scale = 0\n", "content.scale must be a number in"),
+    ("origin = [1]\n", "content.origin must be"),
+    ("[content.foreground]\npath = 'photo.png'\n", "content.foreground.radius is required"),
+    ("[content.foreground]\npath = 'photo.png'\nradius = 3\nshape = 'disc'\n",
+     "unknown field content.foreground.shape"),
+])
+def test_bad_image_scene(tmp_path, extra, match):
+    path = _image_scene_file(tmp_path)
+    text = path.read_text()
+    if extra.startswith("["):
+        text += extra
+    else:
+        text = text.replace("brightness = 0.4\n", "brightness = 0.4\n" + extra)
+    path.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        load_scene(path)
+
+
+def test_image_scene_from_scikit_image():
+    pytest.importorskip("skimage")
+    from spikeref.simulate.scenes import scene_from_dict
+
+    data = {"planes": 10, "content": {"type": "image", "path": "skimage:astronaut", "height": 32, "width": 32,
+                                      "scale": 0.125}}
+    scene = scene_from_dict(data)
+    assert scene.content.image.shape == (64, 64, 3) and scene.content.static
+    data["content"]["path"] = "skimage:no_such_photo"
+    with pytest.raises(ValueError, match="scikit-image bundles no photograph 'no_such_photo'; it has .*astronaut"):
+        scene_from_dict(data)

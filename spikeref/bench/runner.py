@@ -36,11 +36,12 @@ import numpy as np
 
 from spikeref.bench.settings import BenchGrid, Setting, grid_settings
 
-__all__ = ["BENCH_VERSION", "SCORE_WINDOW", "FRAME_SPACING", "BenchScene", "bench_scenes", "score_centres",
+__all__ = ["BENCH_VERSION", "SCORE_WINDOW", "FRAME_SPACING", "BenchScene", "bench_scenes", "load_bench_scene",
+           "needs_scikit_image", "score_centres",
            "run_setting", "run_bench", "METRICS"]
 
 #: Version of the benchmark scene set (``spikeref/bench/scenes/*.toml``); in every results file.
-BENCH_VERSION = 1
+BENCH_VERSION = 2
 #: Planes of the reference frame (the 2000-FPS ground truth).
 SCORE_WINDOW = 10
 #: Planes between scored frames: a common multiple of every W, so all grids have a window there.
@@ -77,18 +78,42 @@ def _scene_dir() -> Path:
     return Path(str(resources.files("spikeref.bench") / "scenes"))
 
 
+def needs_scikit_image(path: Path) -> bool:
+    """True when a scene file shows a photograph bundled with scikit-image (``skimage:NAME``)."""
+    from spikeref.simulate.scenes import SKIMAGE_PREFIX
+
+    return f'"{SKIMAGE_PREFIX}' in Path(path).read_text()
+
+
+def load_bench_scene(path) -> BenchScene:
+    """A scene file as a :class:`BenchScene` (its key: the ``name`` field with spaces as ``_``)."""
+    from spikeref.simulate.scenes import load_scene
+
+    scene = load_scene(path)
+    return BenchScene(scene.name.replace(" ", "_"), Path(path), scene)
+
+
 def bench_scenes(names=()) -> list[BenchScene]:
     """The benchmark scenes (version :data:`BENCH_VERSION`), optionally only those named.
 
     A scene's key is its ``name`` field with spaces as ``_`` (``static``, ``translation``,
-    ``fan``, ``hdr``, ``low_light``).
+    ``fan``, ``hdr``, ``low_light``, and the natural-content scenes ``astronaut_pan``,
+    ``coffee_spin``, ``occlusion``).  The natural-content scenes show photographs bundled with
+    scikit-image (the ``test`` extra): without it they are left out (and naming one is an error
+    that says what to install).
     """
-    from spikeref.simulate.scenes import load_scene
+    import importlib.util
 
-    found = []
+    have_skimage = importlib.util.find_spec("skimage") is not None
+    found, missing = [], []
     for path in sorted(_scene_dir().glob("*.toml")):
-        scene = load_scene(path)
-        found.append(BenchScene(scene.name.replace(" ", "_"), path, scene))
+        if not have_skimage and needs_scikit_image(path):
+            missing.append(path.stem.split("_", 1)[1])
+            continue
+        found.append(load_bench_scene(path))
+    bad = [n for n in names if n in missing]
+    if bad:
+        raise ValueError(f"scene {', '.join(bad)} shows a scikit-image photograph: pip install \"spikeref[test]\"")
     keys = [s.key for s in found]
     unknown = [n for n in names if n not in keys]
     if unknown:

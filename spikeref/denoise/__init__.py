@@ -1,5 +1,6 @@
 """Self-supervised chromatic spike denoising (§4.1): U-Net inference, blind-spot volume and
-averaging (Eq. 10–11), the Eq. 12 loss; training lives in :mod:`spikeref.denoise.train` (PyTorch)."""
+averaging (Eq. 10–11), the Eq. 12 loss; training lives in :mod:`spikeref.denoise.train` (PyTorch);
+classical peers (BM3D, NLM, Gaussian; extra ``peers``) in :mod:`spikeref.denoise.peers`."""
 
 import importlib
 
@@ -13,6 +14,8 @@ _EXPORTS = {
     "UNet": "spikeref.denoise.unet",
     "UNetSpec": "spikeref.denoise.unet",
     "Denoiser": "spikeref.denoise.denoiser",
+    "PeerDenoiser": "spikeref.denoise.peers",
+    "PEERS": "spikeref.denoise.peers",
 }
 
 __all__ = list(_EXPORTS)

@@ -74,6 +74,7 @@ import numpy as np
 
 from spikeref.simulate.camera import Camera
 from spikeref.simulate.effects import parse_effects
+from spikeref.simulate.motion import Motion, layer_flow
 from spikeref.tonemap import srgb_decode
 
 if sys.version_info >= (3, 11):
@@ -89,6 +90,7 @@ __all__ = [
     "FanOverToys",
     "HDRLamp",
     "VideoFrames",
+    "ImageMotion",
     "CONTENT_TYPES",
     "COLORCHECKER_SRGB",
     "Scene",
@@ -158,6 +160,12 @@ def _box(h: int, w: int, cy: float, cx: float, half_h: float, half_w: float) -> 
             slice(max(0, math.floor(cx - half_w)), max(0, min(w, math.ceil(cx + half_w)))))
 
 
+def _view_points(h: int, w: int) -> np.ndarray:
+    """``(x, y)`` of every pixel of an ``h × w`` view: ``(h, w, 2) float64`` (pixel centres at integers)."""
+    yy, xx = np.mgrid[0:h, 0:w]
+    return np.stack([xx, yy], axis=-1).astype(np.float64)
+
+
 def _coverage(signed_distance):
     """Anti-aliased coverage of a shape from its signed distance (pixels, < 0 inside): a 1-pixel ramp."""
     return np.clip(0.5 - signed_distance, 0.0, 1.0)
@@ -195,6 +203,20 @@ class SceneContent:
     def radiance(self, times) -> np.ndarray:  # pragma: no cover - abstract
         """Linear RGB radiance ``(n, H, W, 3) float32`` (rate units) at ``times`` ``(n,)`` in readouts."""
         raise NotImplementedError
+
+    def true_flow(self, t_ref: float, t_other: float, points: np.ndarray | None = None):
+        """Exact backward flow between two times (readouts), or ``None`` where the content has no motion model.
+
+        Returns ``(flow, visible)``: ``flow`` ``(..., 2) float64`` holds ``(dx, dy)`` in pixels such
+        that the content seen at ``x`` at ``t_ref`` is at ``x + flow`` at ``t_other``; ``visible``
+        ``(...) bool`` is False where that content is hidden or outside the view at ``t_other``.
+        ``points`` ``(..., 2)`` of ``(x, y)`` (default: every pixel) says where to evaluate it.
+        Static content has zero flow; moving contents with a motion model override this.
+        """
+        if not self.static:
+            return None
+        pts = _view_points(self.height, self.width) if points is None else np.asarray(points, dtype=np.float64)
+        return np.zeros(pts.shape, np.float64), np.ones(pts.shape[:-1], bool)
 
     @staticmethod
     def _times(times) -> np.ndarray:
@@ -381,6 +403,16 @@ class TranslatingTexture(SceneContent):
     @property
     def static(self) -> bool:
         return self.velocity == (0.0, 0.0)
+
+    def true_flow(self, t_ref: float, t_other: float, points: np.ndarray | None = None):
+        """The exact flow of a translation: ``v (t_other − t_ref)`` everywhere (see :meth:`SceneContent.true_flow`)."""
+        pts = _view_points(self.height, self.width) if points is None else np.asarray(points, dtype=np.float64)
+        d = np.asarray(self.velocity) * (float(t_other) - float(t_ref)) / self.rate_hz
+        flow = np.broadcast_to(d, pts.shape).copy()
+        target = pts + flow
+        visible = ((target[..., 0] >= -0.5) & (target[..., 0] <= self.width - 0.5)
+                   & (target[..., 1] >= -0.5) & (target[..., 1] <= self.height - 0.5))
+        return flow, visible
 
     @cached_property
     def texture(self) -> np.ndarray:
@@ -731,9 +763,208 @@ class VideoFrames(SceneContent):
         return out
 
 
+def _reflect_index(i: np.ndarray, n: int) -> np.ndarray:
+    """Index ``i`` folded into ``[0, n)`` by half-sample symmetric mirroring (``-1 → 0``, ``n → n − 1``)."""
+    r = np.mod(i, 2 * n)
+    return np.where(r >= n, 2 * n - 1 - r, r)
+
+
+def _sample_bilinear(image: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """``image`` ``(h, w, 3)`` at continuous ``(x, y)`` positions ``(..., 2)``: bilinear, mirrored beyond the border.
+
+    Pixel ``(row, col)`` has its centre at ``(x, y) = (col, row)``.  The result is ``(..., 3) float32``.
+    """
+    h, w = image.shape[:2]
+    x, y = xy[..., 0], xy[..., 1]
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[..., None].astype(np.float32), (y - y0)[..., None].astype(np.float32)
+    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+    xa, xb = _reflect_index(x0, w), _reflect_index(x0 + 1, w)
+    ya, yb = _reflect_index(y0, h), _reflect_index(y0 + 1, h)
+    top = image[ya, xa] * (1 - fx) + image[ya, xb] * fx
+    bottom = image[yb, xa] * (1 - fx) + image[yb, xb] * fx
+    return top * (1 - fy) + bottom * fy
+
+
+@dataclass(frozen=True, kw_only=True)
+class ImageMotion(SceneContent):
+    """A photograph moving in front of the camera, optionally with a second layer occluding it.
+
+    The background is ``image`` moved by ``motion`` (:class:`~spikeref.simulate.motion.Motion`:
+    translation, rotation and zoom about a point, affine); the view's pixel ``(row, col)`` shows
+    at time ``t`` the image at ``origin + motion⁻¹(t)(col, row)``, sampled bilinearly, with the
+    image mirrored beyond its border (so the view never runs out of content).  A foreground
+    layer, when given, is a disc of radius ``fg_radius`` cut out of ``fg_image`` around
+    ``fg_source_center``, placed with its centre at ``fg_center`` (view pixels) at time 0 and
+    moved by ``fg_motion``; its edge is anti-aliased over one pixel and it hides the background.
+
+    The exact backward flow between any two times, on the full-resolution or the Bayer-plane
+    grid, and where a layer is hidden, is :meth:`true_flow`.
+
+    Attributes
+    ----------
+    image : ndarray ``(h, w, 3)``
+        Linear radiance of the background photograph (rate units, already scaled; finite, ≥ 0;
+        kept read-only ``float32``).  Not part of equality.
+    origin : tuple ``(x, y)`` or None
+        Image position of the view's pixel ``(0, 0)`` at time 0; ``None``: the view is centred
+        on the image.
+    motion : Motion
+        The background's motion; its ``center`` defaults to the view's centre.
+    fg_image : ndarray ``(h', w', 3)`` or None
+        The foreground photograph (linear radiance); ``None``: one layer only.
+    fg_radius : float
+        Radius of the foreground disc in pixels (> 0 with a foreground).
+    fg_center : tuple ``(x, y)`` or None
+        Centre of the disc in view pixels at time 0 (``None``: the view's centre).
+    fg_source_center : tuple ``(x, y)`` or None
+        The point of ``fg_image`` shown at the disc's centre (``None``: the image's centre).
+    fg_motion : Motion
+        The foreground's motion; its ``center`` defaults to the disc's centre.
+    source, source_options :
+        What the images were read from, for :func:`scene_to_dict` (``""`` when built from arrays).
+    """
+
+    image: np.ndarray = field(repr=False, compare=False)
+    origin: tuple | None = None
+    motion: Motion = field(default_factory=Motion)
+    fg_image: np.ndarray | None = field(default=None, repr=False, compare=False)
+    fg_radius: float = 0.0
+    fg_center: tuple | None = None
+    fg_source_center: tuple | None = None
+    fg_motion: Motion = field(default_factory=Motion)
+    source: str = ""
+    source_options: tuple = ()
+    type_name: ClassVar[str] = "image"
+
+    @staticmethod
+    def _radiance_array(name: str, a) -> np.ndarray:
+        a = np.asarray(a)
+        if a.ndim != 3 or a.shape[-1] != 3 or a.shape[0] < 2 or a.shape[1] < 2:
+            raise ValueError(f"content.{name} must have shape (h, w, 3) with h, w ≥ 2; got {a.shape}")
+        a = np.ascontiguousarray(a, dtype=np.float32).view()
+        a.flags.writeable = False
+        if not np.all(np.isfinite(a)) or a.min() < 0:
+            raise ValueError(f"content.{name} must be finite and ≥ 0 (linear radiance)")
+        return a
+
+    def __post_init__(self):
+        super().__post_init__()
+        object.__setattr__(self, "image", self._radiance_array("image", self.image))
+        view_centre = ((self.width - 1) / 2.0, (self.height - 1) / 2.0)
+        if self.origin is None:
+            ih, iw = self.image.shape[:2]
+            origin = ((iw - self.width) / 2.0, (ih - self.height) / 2.0)
+        else:
+            origin = self.origin
+        try:
+            origin = tuple(_number("origin", v) for v in origin)
+        except TypeError:
+            origin = ()
+        if len(origin) != 2:
+            raise ValueError(f"content.origin must be (x, y) in image pixels; got {self.origin!r}")
+        object.__setattr__(self, "origin", origin)
+        motion = Motion.from_table(self.motion, "content.motion")
+        object.__setattr__(self, "motion", motion.with_center(view_centre))
+        if self.fg_image is None:
+            if self.fg_radius or self.fg_center is not None or self.fg_source_center is not None:
+                raise ValueError("content.foreground fields were given without a foreground image")
+            object.__setattr__(self, "fg_motion", Motion.from_table(self.fg_motion, "content.foreground.motion"))
+            return
+        fg = self._radiance_array("fg_image", self.fg_image)
+        object.__setattr__(self, "fg_image", fg)
+        object.__setattr__(self, "fg_radius", _number("foreground.radius", self.fg_radius, minimum=0,
+                                                         open_min=True))
+        centre = view_centre if self.fg_center is None else _rgb_pair("foreground.center", self.fg_center)
+        source_centre = ((fg.shape[1] - 1) / 2.0, (fg.shape[0] - 1) / 2.0) if self.fg_source_center is None \
+            else _rgb_pair("foreground.source_center", self.fg_source_center)
+        object.__setattr__(self, "fg_center", centre)
+        object.__setattr__(self, "fg_source_center", source_centre)
+        fg_motion = Motion.from_table(self.fg_motion, "content.foreground.motion")
+        object.__setattr__(self, "fg_motion", fg_motion.with_center(centre))
+
+    @property
+    def static(self) -> bool:
+        return self.motion.static and (self.fg_image is None or self.fg_motion.static)
+
+    @cached_property
+    def _view_points(self) -> np.ndarray:
+        return _view_points(self.height, self.width)
+
+    def _fg_coverage(self, points: np.ndarray, seconds: float) -> tuple:
+        """Foreground coverage in [0, 1] at view ``points`` and the layer positions at time 0."""
+        q = self.fg_motion.inverse(points, seconds)
+        d = np.hypot(q[..., 0] - self.fg_center[0], q[..., 1] - self.fg_center[1]) - self.fg_radius
+        return _coverage(d), q
+
+    def radiance(self, times) -> np.ndarray:
+        t = self._times(times)
+        pts = self._view_points
+        origin = np.asarray(self.origin)
+        out = np.empty((t.size, self.height, self.width, 3), dtype=np.float32)
+        for i, ti in enumerate(t):
+            s = ti / self.rate_hz
+            out[i] = _sample_bilinear(self.image, self.motion.inverse(pts, s) + origin)
+            if self.fg_image is not None:
+                cov, q = self._fg_coverage(pts, s)
+                inside = cov > 0
+                if np.any(inside):
+                    shift = np.asarray(self.fg_source_center) - np.asarray(self.fg_center)
+                    fg = _sample_bilinear(self.fg_image, q[inside] + shift)
+                    a = cov[inside][:, None].astype(np.float32)
+                    out[i][inside] = a * fg + (1 - a) * out[i][inside]
+        return out
+
+    def true_flow(self, t_ref: float, t_other: float, points: np.ndarray | None = None) -> tuple:
+        """Exact backward flow from time ``t_ref`` to ``t_other`` (readouts) and where it holds.
+
+        Parameters
+        ----------
+        t_ref, t_other : float
+            Times in readouts (fractions allowed).
+        points : ndarray ``(..., 2)`` of ``(x, y)``, optional
+            Where to evaluate it (full-resolution pixels); default every pixel of the view.
+            :func:`~spikeref.simulate.motion.plane_grid_points` gives the Bayer-plane grid.
+
+        Returns
+        -------
+        flow : ndarray ``(..., 2) float64``
+            ``(dx, dy)`` in full-resolution pixels: the content seen at ``x`` at ``t_ref`` is at
+            ``x + flow`` at ``t_other``.  Where the foreground covers at least half of a pixel at
+            ``t_ref`` it is the foreground's flow, elsewhere the background's.
+        visible : ndarray ``(...) bool``
+            False where that content is hidden at ``t_other`` (the other layer covers the target)
+            or leaves the view.
+        """
+        pts = self._view_points if points is None else np.asarray(points, dtype=np.float64)
+        s0, s1 = t_ref / self.rate_hz, t_other / self.rate_hz
+        flow = layer_flow(self.motion, pts, s0, s1)
+        if self.fg_image is not None:
+            is_fg = self._fg_coverage(pts, s0)[0] >= 0.5
+            flow = np.where(is_fg[..., None], layer_flow(self.fg_motion, pts, s0, s1), flow)
+            fg_there = self._fg_coverage(pts + flow, s1)[0] >= 0.5
+            visible = fg_there == is_fg
+        else:
+            visible = np.ones(pts.shape[:-1], dtype=bool)
+        target = pts + flow
+        visible &= (target[..., 0] >= -0.5) & (target[..., 0] <= self.width - 0.5)
+        visible &= (target[..., 1] >= -0.5) & (target[..., 1] <= self.height - 0.5)
+        return flow, visible
+
+
+def _rgb_pair(name: str, value) -> tuple:
+    try:
+        values = tuple(value)
+    except TypeError:
+        values = ()
+    if len(values) != 2:
+        raise ValueError(f"content.{name} must be (x, y) in pixels; got {value!r}")
+    return tuple(_number(name, v) for v in values)
+
+
 #: Content classes by their ``type`` in scene files.
 CONTENT_TYPES = {cls.type_name: cls for cls in (Uniform, ColorChart, TranslatingTexture, FanOverToys, HDRLamp,
-                                                 VideoFrames)}
+                                                 VideoFrames, ImageMotion)}
 
 
 # ----------------------------------------------------------------------------- scene
@@ -802,6 +1033,8 @@ _VIDEO_KEYS = ("path", "fps", "brightness", "srgb", "max_frames", "height", "wid
 def _content_keys(cls) -> list[str]:
     if cls is VideoFrames:
         return list(_VIDEO_KEYS)
+    if cls is ImageMotion:
+        return list(_IMAGE_KEYS)
     return [f.name for f in fields(cls) if f.init and f.name != "rate_hz"]
 
 
@@ -901,6 +1134,126 @@ def _video_from_table(table: dict, rate_hz: float, base_dir: Path | None) -> Vid
                        source_options=tuple(sorted(options.items())))
 
 
+_IMAGE_KEYS = ("path", "brightness", "srgb", "scale", "height", "width", "origin", "motion", "foreground")
+_FOREGROUND_KEYS = ("path", "brightness", "srgb", "scale", "radius", "center", "source_center", "motion")
+#: Scene files may name a photograph bundled with scikit-image as ``skimage:NAME`` (the test extra).
+SKIMAGE_PREFIX = "skimage:"
+
+
+def _resolve_image_path(text: str, base_dir: Path | None, name: str) -> Path:
+    """A scene file's image path: a file (relative to the scene file's folder) or ``skimage:NAME``."""
+    if not isinstance(text, str) or not text:
+        raise ValueError(f"{name} must be a non-empty string; got {text!r}")
+    if text.startswith(SKIMAGE_PREFIX):
+        key = text[len(SKIMAGE_PREFIX):]
+        try:
+            import skimage.data
+        except ImportError:
+            raise ValueError(f"{name} = {text!r} needs scikit-image (pip install \"spikeref[test]\")") from None
+        folder = Path(skimage.data.__file__).parent
+        found = sorted(p for p in folder.iterdir() if p.stem == key and p.suffix.lower() in (".png", ".jpg"))
+        if not found:
+            names = sorted({p.stem for p in folder.iterdir() if p.suffix.lower() in (".png", ".jpg")})
+            raise ValueError(f"{name}: scikit-image bundles no photograph {key!r}; it has {', '.join(names)}")
+        return found[0]
+    path = Path(text).expanduser()
+    if not path.is_absolute() and base_dir is not None:
+        path = base_dir / path
+    return path
+
+
+def _read_photograph(table: dict, base_dir: Path | None, name: str) -> tuple:
+    """Read, decode (sRGB → linear), rescale (area average / bilinear) and scale one photograph to radiance.
+
+    Returns the radiance ``(h, w, 3) float32`` and how to name the file again (``skimage:NAME`` as
+    given, otherwise the resolved path).
+    """
+    from spikeref.io.frames import read_frames
+
+    if "path" not in table:
+        raise ValueError(f"{name}.path is required (an image file, or skimage:NAME for a scikit-image photograph)")
+    path = _resolve_image_path(table["path"], base_dir, f"{name}.path")
+    brightness = _number("brightness", table.get("brightness", 0.5), minimum=0)
+    srgb = table.get("srgb", True)
+    if not isinstance(srgb, bool):
+        raise ValueError(f"{name}.srgb must be true or false; got {srgb!r}")
+    scale = table.get("scale", 1.0)
+    if not _is_number(scale) or not math.isfinite(scale) or not 0 < scale <= 4:
+        raise ValueError(f"{name}.scale must be a number in (0, 4]; got {scale!r}")
+    try:
+        raw = read_frames(path, max_frames=1)[0]
+    except FileNotFoundError as exc:
+        raise FileNotFoundError(f"{name}.path: {exc}") from None
+    except ValueError as exc:
+        raise ValueError(f"{name}.path: {exc}") from None
+    if np.issubdtype(raw.dtype, np.integer):
+        linear = raw.astype(np.float32) / np.float32(np.iinfo(raw.dtype).max)
+    else:
+        linear = raw.astype(np.float32)
+        if not np.all(np.isfinite(linear)):
+            raise ValueError(f"{name}.path: {path} holds non-finite values")
+    linear = srgb_decode(linear) if srgb else np.maximum(linear, 0)
+    src_h, src_w = linear.shape[:2]
+    if scale != 1.0:
+        h, w = max(2, round(src_h * scale)), max(2, round(src_w * scale))
+        along_y, along_x = _resample_matrix(src_h, h), _resample_matrix(src_w, w)
+        linear = (along_y @ linear.reshape(src_h, -1)).reshape(h, src_w, 3)
+        linear = (along_x @ linear.transpose(1, 0, 2).reshape(src_w, -1)).reshape(w, h, 3).transpose(1, 0, 2)
+    text = table["path"]
+    return (linear * brightness).astype(np.float32), text if text.startswith(SKIMAGE_PREFIX) else str(path)
+
+
+def _image_from_table(table: dict, rate_hz: float, base_dir: Path | None) -> ImageMotion:
+    """Build a scene file's ``image`` content (reads the photographs: the scenes' only other file I/O)."""
+    image, path = _read_photograph(table, base_dir, "content")
+    if "height" not in table or "width" not in table:
+        raise ValueError("content.height and content.width are required for type 'image' (the view, in pixels)")
+    kw = {"height": _coerce(SceneContent, "height", table["height"]),
+          "width": _coerce(SceneContent, "width", table["width"]),
+          "origin": table.get("origin"), "motion": Motion.from_table(table.get("motion"), "content.motion")}
+    fg_table = table.get("foreground")
+    fg_options = None
+    if fg_table is not None:
+        if not isinstance(fg_table, dict):
+            raise ValueError(f"content.foreground must be a table; got {fg_table!r}")
+        unknown = sorted(set(fg_table) - set(_FOREGROUND_KEYS))
+        if unknown:
+            raise ValueError(f"unknown field content.foreground.{unknown[0]}; a foreground takes "
+                             f"{', '.join(_FOREGROUND_KEYS)}")
+        if "radius" not in fg_table:
+            raise ValueError("content.foreground.radius is required (the disc's radius in pixels)")
+        fg_image, fg_path = _read_photograph(fg_table, base_dir, "content.foreground")
+        kw.update(fg_image=fg_image, fg_radius=fg_table["radius"], fg_center=fg_table.get("center"),
+                  fg_source_center=fg_table.get("source_center"),
+                  fg_motion=Motion.from_table(fg_table.get("motion"), "content.foreground.motion"))
+        fg_options = {k: fg_table[k] for k in ("brightness", "srgb", "scale") if k in fg_table}
+        fg_options["path"] = fg_path
+    options = {k: table[k] for k in ("brightness", "srgb", "scale") if k in table}
+    if fg_options is not None:
+        options["foreground"] = tuple(sorted(fg_options.items()))
+    return ImageMotion(image=image, rate_hz=rate_hz, source=path,
+                       source_options=tuple(sorted(options.items())), **kw)
+
+
+def _image_to_table(content: ImageMotion) -> dict:
+    """The scene-file table of an ``image`` content read from files."""
+    if not content.source:
+        raise ValueError("an image content built from arrays has no file to refer to; save the images and "
+                         "load them with a scene file")
+    options = dict(content.source_options)
+    table = {"type": "image", "path": content.source, "height": content.height, "width": content.width,
+             "origin": list(content.origin), "motion": content.motion.to_table()}
+    fg = options.pop("foreground", None)
+    table.update(options)
+    if fg is not None:
+        fg = dict(fg)
+        fg.update(radius=content.fg_radius, center=list(content.fg_center),
+                  source_center=list(content.fg_source_center),
+                  motion=content.fg_motion.to_table())
+        table["foreground"] = fg
+    return table
+
+
 def scene_from_dict(data: dict, source: str = "<dict>", base_dir=None) -> Scene:
     """Build a :class:`Scene` from the scene-file layout (see the module docstring).
 
@@ -957,6 +1310,8 @@ def scene_from_dict(data: dict, source: str = "<dict>", base_dir=None) -> Scene:
     try:
         if cls is VideoFrames:
             content = _video_from_table(table, camera.rate_hz, base_dir)
+        elif cls is ImageMotion:
+            content = _image_from_table(table, camera.rate_hz, base_dir)
         else:
             content = cls(rate_hz=camera.rate_hz, **{k: _coerce(cls, k, v) for k, v in table.items()})
     except FileNotFoundError as exc:
@@ -1046,6 +1401,8 @@ def scene_to_dict(scene: Scene) -> dict:
             raise ValueError("a video content built from an array has no file to refer to; write its frames "
                              "to images and load them with a scene file")
         table = {"type": "video", "path": content.source, "fps": content.fps, **dict(content.source_options)}
+    elif isinstance(content, ImageMotion):
+        table = _image_to_table(content)
     else:
         table = {"type": content.type_name}
         for f in fields(content):

@@ -1,0 +1,401 @@
+"""The stage ladder: what each stage of the method gains, from one noisy window up to the physical limit.
+
+For a scene with known motion and one setting ``W, K, L`` the ladder makes the same output
+frames (the frame whose window is centred on each scored instant, as :mod:`spikeref.bench.runner`)
+in every way below, from the bottom up, and scores each against the exact ground truth of the
+10-plane window at that instant (PSNR and SSIM with the reference's maximum as data range,
+linear RGB after Ψ, as ``spikeref bench``):
+
+==================  ==============================================================================
+rung                what it is
+==================  ==============================================================================
+``tfp``             TFP over the ``W`` planes of the window: Eq. 4, then Ψ
+``bm3d``, ``nlm``   the classical peer a user would run on that one window instead: BM3D / non-local
+                    means on each Bayer plane, σ estimated blind (the ``peers`` extra)
+``net``             our denoiser on that one window: ``Ψ[D(I_0)]`` (the method at ``L = 0``)
+``tfp_support``     TFP over the whole support ``((K−1)L+1)·W`` planes, equal weights, no motion
+``no_align``        the method with zero flow (plain accumulation with Eq. 14–15's weights, then D)
+``no_denoiser``     the method with the identity for ``D`` (flows estimated on the raw frames)
+``ours``            the method (Eq. 13–15, Fig. 3(b))
+``true_flow``       the support warped by the scene's exact motion: every window's Bayer planes
+                    resampled once (cubic) onto the reference window, weighted by Eq. 14–15's
+                    binomial weights, no denoiser — what perfect alignment would give
+``true_flow_d``     the same, then our denoiser (told the exposure of ``I_L``)
+``limit``           the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
+==================  ==============================================================================
+
+The true-flow rungs need a motion model (:meth:`SceneContent.true_flow`); the fan has none and
+shows them empty.  For the method's own flows the ladder also reports the **end-point error**
+per step ``l``: the mean over pixels (an 8-pixel border left out, occluded pixels left out) of
+``|F_l(k, k+i) − F_true(k, k+i)|`` in plane pixels, averaged over ``i`` and the scored frames,
+with the true flow between the centres of windows ``k`` and ``k+i`` at the 2×2 cell centres.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["RUNGS", "RUNG_LABELS", "LadderSetting", "binomial_weights", "true_flow_frame", "run_ladder",
+           "ladder_markdown", "plot_ladder"]
+
+#: The rungs, bottom to top.
+RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "ours", "true_flow",
+         "true_flow_d", "limit")
+RUNG_LABELS = {
+    "tfp": "TFP(W)", "bm3d": "BM3D on W", "nlm": "NLM on W", "net": "D on W", "tfp_support": "TFP(support)",
+    "no_align": "no alignment", "no_denoiser": "no denoiser", "ours": "ours", "true_flow": "true flow",
+    "true_flow_d": "true flow + D", "limit": "limit (Ψ of truth)",
+}
+#: Border left out of the end-point error, full-resolution pixels.
+EPE_BORDER = 8
+
+
+@dataclass(frozen=True)
+class LadderSetting:
+    """``W, K, L`` of the method on the ladder (the paper's 10/3/3 by default)."""
+
+    window: int = 10
+    K: int = 3
+    L: int = 3
+
+    @property
+    def name(self) -> str:
+        return f"W={self.window} K={self.K} L={self.L}"
+
+
+def binomial_weights(K: int, L: int) -> np.ndarray:
+    """Weight of each window of the support in ``I_L`` (Eq. 14 then ``L − 1`` times Eq. 15), summing to 1.
+
+    ``I_1`` weighs ``K`` windows equally; each Eq. 15 step convolves the weights with ``K`` equal
+    weights, so ``I_L`` weighs window ``j`` of the ``(K−1)L+1`` by the ``L``-fold convolution.
+    """
+    c = np.ones(1)
+    for _ in range(max(L, 0) if K > 1 else 0):
+        c = np.convolve(c, np.ones(K))
+    return c / c.sum()
+
+
+def true_flow_frame(counts: np.ndarray, content, window: int, first_plane: int, ref_index: int,
+                    weights: np.ndarray, cfa_offsets=((0, 0), (0, 1), (1, 0), (1, 1))) -> np.ndarray:
+    """``I`` of the support warped by the exact motion: ``(4, h, w) float32`` rates.
+
+    Parameters
+    ----------
+    counts : ndarray ``(n, 4, h, w)``
+        Window counts of the support's ``n`` windows (Bayer planes).
+    content : SceneContent
+        Gives the exact flow (:func:`spikeref.simulate.motion.plane_flow`).
+    window : int
+        ``W``.
+    first_plane : int
+        Plane index (in the scene's time) of the first window's first plane.
+    ref_index : int
+        Which of the ``n`` windows is the reference.
+    weights : ndarray ``(n,)``
+        Weight of each window (:func:`binomial_weights`).
+
+    Each plane of each window is resampled once, by cubic interpolation at ``x + F(x)`` with the
+    exact backward flow from the reference window's centre to that window's centre, evaluated
+    at that plane's own pixel positions; samples outside the plane are dropped and the weights
+    renormalised per pixel.
+    """
+    from scipy.ndimage import map_coordinates
+
+    from spikeref.simulate.motion import plane_flow
+
+    n, _, h, w = counts.shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    t_ref = first_plane + (ref_index + 0.5) * window
+    acc = np.zeros((4, h, w))
+    wsum = np.zeros((4, h, w))
+    for j in range(n):
+        t_j = first_plane + (j + 0.5) * window
+        for p, off in enumerate(cfa_offsets):
+            rates = counts[j, p].astype(np.float64) / window
+            if j == ref_index:
+                acc[p] += weights[j] * rates
+                wsum[p] += weights[j]
+                continue
+            flow, _ = plane_flow(content, t_ref, t_j, offset=off)
+            sy, sx = yy + flow[0], xx + flow[1]
+            inside = (sy >= -0.5) & (sy <= h - 0.5) & (sx >= -0.5) & (sx <= w - 0.5)
+            sample = map_coordinates(rates, [sy, sx], order=3, mode="mirror")
+            acc[p] += np.where(inside, weights[j] * sample, 0.0)
+            wsum[p] += np.where(inside, weights[j], 0.0)
+    return (acc / np.maximum(wsum, 1e-12)).astype(np.float32)
+
+
+def _score(reference: np.ndarray, image: np.ndarray) -> dict:
+    from spikeref.metrics import psnr, ssim
+
+    img = np.asarray(image, dtype=np.float64)
+    top = float(reference.max())
+    return {"psnr": psnr(reference, img, top), "ssim": ssim(reference, img, top)}
+
+
+def _epe(est: np.ndarray, true: np.ndarray, visible: np.ndarray) -> float:
+    b = EPE_BORDER // 2
+    err = np.hypot(est[0] - true[0], est[1] - true[1])[b:-b, b:-b]
+    vis = visible[b:-b, b:-b]
+    return float(err[vis].mean()) if vis.any() else float("nan")
+
+
+def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, peers: dict, rungs) -> tuple:
+    """Frames of every rung at the centres, seconds per frame of the single-window ones, and EPE per step."""
+    from spikeref.accumulate import window_counts
+    from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
+    from spikeref.pipeline import ReconstructParams, Reconstructor, exposure_planes
+    from spikeref.simulate.motion import plane_flow
+
+    stream, cfa = sc.stream, sc.stream.cfa
+    w, K, L = setting.window, setting.K, setting.L
+    half = (K - 1) // 2
+    reach = L * half
+    offset = (centres[0] - w // 2) % w
+    view = stream.slice(offset)
+    ks = [(t - w // 2 - offset) // w for t in centres]
+
+    def psi(planes):
+        return demosaic_bilinear(bayer_mosaic(np.asarray(planes, dtype=np.float32), cfa), cfa)
+
+    out = {r: [] for r in rungs}
+    secs = {r: [] for r in rungs}
+    epe: dict[int, list] = {}
+    weights = binomial_weights(K, L)
+    for k, t in zip(ks, centres, strict=True):
+        first = k - reach
+        counts = window_counts(view, w, start=first * w, count=2 * reach + 1).astype(np.float32)
+        planes = bayer_planes(counts, cfa)  # (n, 4, h, w)
+        i0 = planes[reach] / np.float32(w)
+        if "tfp" in rungs:
+            out["tfp"].append(psi(i0))
+        for name, peer in peers.items():
+            if name in rungs:
+                t0 = time.perf_counter()
+                out[name].append(psi(peer(i0, window=w)))
+                secs[name].append(time.perf_counter() - t0)
+        if "net" in rungs:
+            t0 = time.perf_counter()
+            out["net"].append(psi(denoiser(i0, "visible", window=w)))
+            secs["net"].append(time.perf_counter() - t0)
+        if "tfp_support" in rungs:
+            out["tfp_support"].append(psi(planes.sum(axis=0) / np.float32(w * len(planes))))
+        if "true_flow" in rungs or "true_flow_d" in rungs:
+            f, _ = plane_flow(sc.scene.content, t, t)
+            if f is None:
+                for r in ("true_flow", "true_flow_d"):
+                    if r in rungs:
+                        out[r].append(None)
+            else:
+                tf = true_flow_frame(planes, sc.scene.content, w, offset + first * w, reach, weights)
+                if "true_flow" in rungs:
+                    out["true_flow"].append(psi(tf))
+                if "true_flow_d" in rungs:
+                    out["true_flow_d"].append(psi(denoiser(tf, "visible", window=exposure_planes(w, K, L))))
+        if "limit" in rungs:
+            truth = sc.reference(t)  # (H, W, 3)
+            from spikeref.bayer import cfa_channel_map
+
+            chan = cfa_channel_map(truth.shape[0], truth.shape[1], cfa)
+            mosaic = np.take_along_axis(truth, chan[..., None].astype(np.int64), axis=-1)[..., 0]
+            out["limit"].append(demosaic_bilinear(mosaic.astype(np.float32), cfa))
+
+    def run(params, den, keep):
+        rec = Reconstructor(view, params, den)
+        got, flows = [], []
+        wanted = set(ks)
+        for frame in rec.frames(ks[0], ks[-1] + 1, keep_steps=keep):
+            if frame.index in wanted:
+                got.append(frame.rgb)
+                flows.append(frame.flows)
+        return got, flows
+
+    base = ReconstructParams(window=w, K=K, L=L)
+    if "ours" in rungs:
+        frames, flows = run(base, denoiser, True)
+        out["ours"] = frames
+        for k, fl in zip(ks, flows, strict=True):
+            for (level, i), f in fl.items():
+                t_ref = offset + (k + 0.5) * w
+                true, vis = plane_flow(sc.scene.content, t_ref, t_ref + i * w)
+                if true is not None:
+                    epe.setdefault(level, []).append(_epe(f, true, vis))
+    if "no_align" in rungs:
+        out["no_align"] = run(ReconstructParams(window=w, K=K, L=L, align=False), denoiser, False)[0]
+    if "no_denoiser" in rungs:
+        out["no_denoiser"] = run(base, lambda p: p, False)[0]
+    return out, secs, {lv: float(np.mean(v)) for lv, v in sorted(epe.items())}
+
+
+def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None, frames: int = 4,
+               peers=("bm3d", "nlm"), rungs=RUNGS, progress: bool = True, log=None) -> dict:
+    """Run the ladder on ``scenes`` (:class:`~spikeref.bench.runner.BenchScene`) for each setting.
+
+    Parameters
+    ----------
+    scenes : list of BenchScene
+    settings : sequence of LadderSetting
+    seed : int
+        Simulation seed.
+    denoiser : Denoiser, optional
+        Default: the bundled weights.
+    frames : int
+        Scored frames per scene (:func:`~spikeref.bench.runner.score_centres`).
+    peers : sequence of str
+        Classical peers to run (``bm3d``, ``nlm``); a peer whose package is missing is left out
+        with a note in ``result["notes"]``.
+    rungs : sequence of str
+        Which rungs to run (default all, :data:`RUNGS`).
+
+    Returns
+    -------
+    dict
+        ``rows``: one per scene × setting × rung (``psnr``, ``ssim``, ``seconds_per_frame`` for the
+        single-window denoisers, NaN where not run); ``epe``: one per scene × setting × step;
+        ``notes``: what was left out and why.
+    """
+    from tqdm import tqdm
+
+    from spikeref.bench.runner import score_centres
+    from spikeref.denoise.denoiser import Denoiser
+
+    unknown = [r for r in rungs if r not in RUNGS]
+    if unknown:
+        raise ValueError(f"unknown rung {', '.join(unknown)}; allowed: {', '.join(RUNGS)}")
+    if denoiser is None:
+        denoiser = Denoiser.load()
+    notes = []
+    peer_fns = {}
+    for name in peers:
+        if name not in rungs:
+            continue
+        try:
+            from spikeref.denoise.peers import PeerDenoiser, peer_available
+        except ImportError:  # pragma: no cover - the module ships with the package
+            notes.append(f"{name}: spikeref.denoise.peers is missing")
+            continue
+        if not peer_available(name):
+            notes.append(f"{name}: not installed (pip install \"spikeref[peers]\")")
+            continue
+        peer_fns[name] = PeerDenoiser(name)
+    rungs = tuple(r for r in rungs if r not in ("bm3d", "nlm") or r in peer_fns)
+    rows, epe_rows = [], []
+    bar = tqdm(total=len(scenes) * len(settings), desc="ladder", unit="scene", disable=not progress)
+    try:
+        for sc in scenes:
+            bar.set_postfix_str(f"{sc.key}: simulating")
+            sc.simulate(seed)
+            centres = score_centres(len(sc.stream), frames)
+            refs = [sc.reference(t) for t in centres]
+            for setting in settings:
+                bar.set_postfix_str(f"{sc.key}: {setting.name}")
+                out, secs, epe = _frames_for_scene(sc, setting, centres, denoiser, peer_fns, rungs)
+                for r in rungs:
+                    imgs = out[r]
+                    if not imgs or any(i is None for i in imgs):
+                        scores = {"psnr": float("nan"), "ssim": float("nan")}
+                    else:
+                        each = [_score(ref, img) for ref, img in zip(refs, imgs, strict=True)]
+                        scores = {m: float(np.mean([e[m] for e in each])) for m in ("psnr", "ssim")}
+                    row = {"scene": sc.key, "setting": setting.name, "W": setting.window, "K": setting.K,
+                           "L": setting.L, "rung": r, **scores,
+                           "seconds_per_frame": float(np.median(secs[r])) if secs[r] else float("nan")}
+                    rows.append(row)
+                    if log is not None:
+                        log(row)
+                for level, e in epe.items():
+                    epe_rows.append({"scene": sc.key, "setting": setting.name, "step": level, "epe": e})
+                bar.update(1)
+            sc.stream = None
+    finally:
+        bar.close()
+    return {"rows": rows, "epe": epe_rows, "notes": notes, "rungs": rungs,
+            "scenes": [s.key for s in scenes], "settings": [s.name for s in settings], "seed": seed}
+
+
+def _table(result: dict, setting: str, metric: str) -> tuple[list[str], dict]:
+    rows = [r for r in result["rows"] if r["setting"] == setting]
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    grid = {(r["scene"], r["rung"]): r[metric] for r in rows}
+    return scenes, grid
+
+
+def ladder_markdown(result: dict) -> str:
+    """The ladder as Markdown: PSNR per scene and rung, the mean, gains over the rung below, EPE per step."""
+    lines = []
+    rungs = result["rungs"]
+    for setting in result["settings"]:
+        scenes, grid = _table(result, setting, "psnr")
+        lines.append(f"### Stage ladder, {setting} — PSNR (dB)\n")
+        lines.append("| scene | " + " | ".join(RUNG_LABELS[r] for r in rungs) + " |")
+        lines.append("|---|" + "---:|" * len(rungs))
+
+        def fmt(v):
+            return "—" if v is None or not np.isfinite(v) else f"{v:.2f}"
+
+        for s in scenes:
+            lines.append(f"| {s} | " + " | ".join(fmt(grid.get((s, r))) for r in rungs) + " |")
+        # means over the scenes that have every rung (true flow needs a motion model)
+        full = [s for s in scenes if all(np.isfinite(grid.get((s, r), np.nan)) for r in rungs)]
+        if full:
+            means = {r: float(np.mean([grid[(s, r)] for s in full])) for r in rungs}
+            lines.append(f"| **mean of {len(full)}** | " + " | ".join(f"**{means[r]:.2f}**" for r in rungs) + " |")
+        secs = {r["rung"]: r["seconds_per_frame"] for r in result["rows"]
+                if r["setting"] == setting and np.isfinite(r["seconds_per_frame"])}
+        if secs:
+            per = {}
+            for r in result["rows"]:
+                if r["setting"] == setting and np.isfinite(r["seconds_per_frame"]):
+                    per.setdefault(r["rung"], []).append(r["seconds_per_frame"])
+            lines.append("\nSeconds per frame of the single-window denoisers (median over frames, mean over scenes): "
+                         + ", ".join(f"{RUNG_LABELS[k]} {np.mean(v):.3f}" for k, v in per.items()) + ".")
+        epe = [e for e in result["epe"] if e["setting"] == setting]
+        if epe:
+            steps = sorted({e["step"] for e in epe})
+            lines.append(f"\nFlow end-point error of ours against the true flow (plane px), {setting}:\n")
+            lines.append("| scene | " + " | ".join(f"step {s}" for s in steps) + " |")
+            lines.append("|---|" + "---:|" * len(steps))
+            for s in dict.fromkeys(e["scene"] for e in epe):
+                vals = {e["step"]: e["epe"] for e in epe if e["scene"] == s}
+                lines.append(f"| {s} | " + " | ".join(fmt(vals.get(st)) for st in steps) + " |")
+        lines.append("")
+    for note in result.get("notes", []):
+        lines.append(f"- left out: {note}")
+    return "\n".join(lines) + "\n"
+
+
+def plot_ladder(result: dict, path, setting: str | None = None) -> bool:
+    """Draw the ladder (PSNR per rung, one line per scene, the mean in bold); False without matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return False
+    setting = setting or result["settings"][0]
+    rungs = result["rungs"]
+    scenes, grid = _table(result, setting, "psnr")
+    fig, ax = plt.subplots(figsize=(10, 5.2))
+    x = np.arange(len(rungs))
+    full = []
+    for s in scenes:
+        y = np.array([grid.get((s, r), np.nan) for r in rungs], dtype=float)
+        ax.plot(x, y, marker="o", lw=1, alpha=0.6, label=s)
+        if np.all(np.isfinite(y)):
+            full.append(y)
+    if full:
+        ax.plot(x, np.mean(full, axis=0), marker="s", lw=3, color="k", label=f"mean of {len(full)}")
+    ax.set_xticks(x)
+    ax.set_xticklabels([RUNG_LABELS[r] for r in rungs], rotation=35, ha="right")
+    ax.set_ylabel("PSNR (dB), linear RGB against the exact ground truth")
+    ax.set_title(f"Stage ladder, {setting}: what each stage buys, up to the limit")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True

@@ -1,0 +1,88 @@
+"""The stage ladder (spikeref.bench.ladder): weights, the true-flow warp, one small run, the CLI."""
+
+import numpy as np
+import pytest
+
+from spikeref.bayer import bayer_planes, cfa_channel_map
+from spikeref.bench.ladder import RUNGS, binomial_weights, ladder_markdown, plot_ladder, run_ladder, true_flow_frame
+from spikeref.bench.runner import BenchScene
+from spikeref.cli import main
+from spikeref.simulate.scenes import Scene, TranslatingTexture
+from spikeref.simulate.simulator import ground_truth
+
+
+def test_binomial_weights_are_eq14_then_eq15():
+    np.testing.assert_allclose(binomial_weights(3, 3) * 27, [1, 3, 6, 7, 6, 3, 1])
+    np.testing.assert_allclose(binomial_weights(5, 1), np.full(5, 0.2))
+    np.testing.assert_allclose(binomial_weights(3, 2) * 9, [1, 2, 3, 2, 1])
+    assert binomial_weights(1, 3).tolist() == [1.0]
+
+
+def test_true_flow_frame_undoes_a_whole_pixel_motion():
+    """Windows of a texture moving one plane pixel per window, warped by the exact flow, give the reference."""
+    content = TranslatingTexture(height=32, width=40, velocity=(4000.0, -4000.0), texture_size=16, brightness=0.6)
+    scene = Scene(name="t", content=content, planes=70)
+    # noise-free "counts": W × the exact mean radiance of each window, through the CFA
+    gt = ground_truth(scene, 10)  # (7, H, W, 3)
+    chan = cfa_channel_map(32, 40, "RGGB").astype(np.int64)
+    mosaic = np.take_along_axis(gt, chan[None, ..., None], axis=-1)[..., 0]
+    counts = bayer_planes(mosaic * 10.0)  # (7, 4, 16, 20)
+    w = binomial_weights(3, 3)
+    out = true_flow_frame(counts, content, 10, 0, 3, w)
+    ref = counts[3] / 10.0
+    # inside (3 plane px from the border, the farthest window's reach) every window lands exactly on the reference
+    np.testing.assert_allclose(out[:, 3:-3, 3:-3], ref[:, 3:-3, 3:-3], atol=2e-5)
+    # the border renormalises over the windows whose samples lie inside: still the reference, never a dark edge
+    np.testing.assert_allclose(out, ref, atol=2e-5)
+    # a wrong flow sign would not: warping with the plain sum of windows differs
+    assert np.abs(counts.mean(0) / 10.0 - ref).max() > 0.05
+
+
+@pytest.fixture(scope="module")
+def small_ladder():
+    from spikeref.simulate.scenes import load_scene
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "spikeref" / "bench" / "scenes" / "2_translation.toml"
+    scene = load_scene(path, overrides={"planes": 120})
+    sc = BenchScene("translation", path, scene)
+    return run_ladder([sc], frames=1, progress=False)
+
+
+def test_small_ladder_has_every_rung_and_the_limit_on_top(small_ladder):
+    res = small_ladder
+    rows = {r["rung"]: r for r in res["rows"]}
+    for r in res["rungs"]:
+        assert np.isfinite(rows[r]["psnr"]), r
+    assert set(res["rungs"]) >= set(RUNGS) - {"bm3d", "nlm"}
+    assert rows["limit"]["psnr"] == max(r["psnr"] for r in rows.values())
+    assert rows["tfp"]["psnr"] == min(r["psnr"] for r in rows.values())
+    assert rows["true_flow"]["psnr"] > rows["tfp_support"]["psnr"]  # the texture moves 0.5 plane px per window
+    steps = sorted(e["step"] for e in res["epe"])
+    assert steps == [0, 1, 2] and all(0 <= e["epe"] < 1.0 for e in res["epe"])
+
+
+def test_ladder_report_and_plot(small_ladder, tmp_path):
+    text = ladder_markdown(small_ladder)
+    assert "| translation |" in text and "**mean of 1**" in text and "step 2" in text
+    pytest.importorskip("matplotlib")
+    assert plot_ladder(small_ladder, tmp_path / "ladder.png")
+    assert (tmp_path / "ladder.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_unknown_rung():
+    with pytest.raises(ValueError, match="unknown rung fastest; allowed: tfp, bm3d"):
+        run_ladder([], rungs=("fastest",))
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["--quick"], "--quick does not apply to --ladder"),
+    (["-K", "2"], "odd K"),
+    (["--frames", "9"], "--frames must be 1…8"),
+    (["--scenes", "moon"], "unknown scene moon"),
+])
+def test_cli_ladder_bad_options(tmp_path, capsys, argv, match):
+    out = tmp_path / "out"
+    assert main(["bench", "--ladder", *argv, "--out", str(out), "--no-progress"]) == 2
+    assert match in capsys.readouterr().err
+    assert not out.exists()
