@@ -107,7 +107,7 @@ def cmd_denoise(args) -> int:
     if args.output is None and args.exr_dir is None:
         raise CliError("give -o VIDEO, --exr-dir DIR, or both")
     stream = open_input(args)
-    den = Denoiser.load(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink)
+    den = Denoiser.load(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink, guard=args.guard)
     total = (len(stream) - args.start) // args.window if args.window > 0 else 0
     if args.frames is not None:
         total = min(total, args.frames)
@@ -151,12 +151,13 @@ def cmd_reconstruct(args) -> int:
     params = ReconstructParams(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align,
                                align_params=AlignParams(), flow_frames=args.flow_frames)
     if args.workers is not None or args.scheduler is not None:
-        if args.no_shrink:
-            raise CliError("--no-shrink is not passed to Dask workers yet; run without --workers/--scheduler")
+        if args.no_shrink or args.guard != "sure":
+            raise CliError("--no-shrink and --guard are not passed to Dask workers yet; run without "
+                           "--workers/--scheduler")
         return _reconstruct_on_dask(args, params, video, exr_dir)
     stream = open_input(args)
     a, b = parse_frames_option(args.frames)
-    den = Denoiser.load(args.weights, mode=args.mode, shrink=not args.no_shrink)
+    den = Denoiser.load(args.weights, mode=args.mode, shrink=not args.no_shrink, guard=args.guard)
     rec = Reconstructor(stream, params, den)
     avail = rec.frames_available
     a = avail.start if a is None else a
@@ -500,9 +501,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
                    help="visible: one network pass; blind: Eq. 10-11, 16 passes; mixed: (D + λf)/(1 + λ)")
     p.add_argument("--lam", type=float, default=2.0, help="λ of the mixed mode")
+    p.add_argument("--guard", choices=["sure", "off"], default="sure",
+                   help="sure: blend the network's output with its input by Stein's unbiased risk estimate, "
+                        "per pixel, from the data's own noise level (one more network pass; not in the paper; "
+                        "spikeref.denoise.guard); off: the network's output, then the shrinkage below")
     p.add_argument("--no-shrink", action="store_true",
-                   help="after the network, do not give back the residual above the exposure's binomial "
-                        "noise (spikeref.denoise.shrinkage, on by default; off = the paper's D(I) exactly)")
+                   help="with --guard off, do not give back the residual above the exposure's binomial noise "
+                        "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--weights", type=Path, default=None,
                    help="weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little sharper)")
     p.add_argument("--start", type=int, default=0, help="first plane")
@@ -530,9 +535,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-L", type=int, default=3, help="warping steps (0: denoised TFP only)")
     p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
                    help="denoiser inference: visible (1 pass), blind (Eq. 10-11, 16 passes), mixed (17)")
+    p.add_argument("--guard", choices=["sure", "off"], default="sure",
+                   help="sure: blend the network's output with its input by Stein's unbiased risk estimate, "
+                        "per pixel, from the data's own noise level (one more network pass; not in the paper; "
+                        "spikeref.denoise.guard); off: the network's output, then the shrinkage below")
     p.add_argument("--no-shrink", action="store_true",
-                   help="after the network, do not give back the residual above the exposure's binomial "
-                        "noise (spikeref.denoise.shrinkage, on by default; off = the paper's D(I) exactly)")
+                   help="with --guard off, do not give back the residual above the exposure's binomial noise "
+                        "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
     p.add_argument("--flow-frames", choices=["denoised", "smoothed"], default="denoised",
                    help="what each step's flow is estimated on: denoised (the paper, Fig. 3b: L+1 denoiser passes "

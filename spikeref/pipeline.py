@@ -252,18 +252,24 @@ class Reconstructor:
         self.timings: dict[str, float] = dict.fromkeys(("accumulate", "denoise", "align", "warp", "demosaic"), 0.0)
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
 
-    def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float], np.ndarray]:
+    def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray]:
         from spikeref.denoise.denoiser import Denoiser
 
         if denoiser is None:
             denoiser = Denoiser.load()
         if isinstance(denoiser, Denoiser):
             mode = self.params.mode
-            return lambda planes, exposure: denoiser(planes, mode, window=exposure)
+
+            # the guard (if the Denoiser has one) on the output only: frames that are only aligned
+            # need no guard, and it would cost them a second network pass
+            def run(planes, exposure, final):
+                return denoiser(planes, mode, window=exposure, guard=None if final else "off")
+
+            return run
         if not callable(denoiser):
             raise TypeError(f"denoiser must be a Denoiser or a callable on (4, h, w) planes; "
                             f"got {type(denoiser).__name__}")
-        return lambda planes, exposure: denoiser(planes)
+        return lambda planes, exposure, final: denoiser(planes)
 
     # ------------------------------------------------------------------ public
     def frames(self, start: int | None = None, stop: int | None = None,
@@ -339,7 +345,7 @@ class _State:
         if entry[1] is None:
             with self.timed("denoise"):
                 exposure = exposure_planes(self.p.window, self.p.K, level)
-                out = np.asarray(self.rec._denoise(entry[0], exposure), dtype=np.float32)
+                out = np.asarray(self.rec._denoise(entry[0], exposure, level == self.p.L), dtype=np.float32)
             if out.shape != entry[0].shape:
                 raise ValueError(f"the denoiser returned shape {out.shape} for planes {entry[0].shape}")
             if not np.all(np.isfinite(out)):

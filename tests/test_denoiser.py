@@ -13,7 +13,7 @@ from spikeref.stream import SpikeStream
 
 @pytest.fixture(scope="module")
 def small():
-    return Denoiser(UNet.random(UNetSpec(width=4, depth=3), seed=2))
+    return Denoiser(UNet.random(UNetSpec(width=4, depth=3), seed=2), guard="off")
 
 
 def test_modes_follow_eq_10_11(small):
@@ -108,7 +108,7 @@ def test_cli_train_writes_weights(tmp_path):
 
 def _count_network(shrink=False):
     net = UNet.random(UNetSpec(width=4, depth=3), seed=5)
-    return Denoiser(UNet(net.spec, net.params, {"input_domain": "count"}), shrink=shrink)
+    return Denoiser(UNet(net.spec, net.params, {"input_domain": "count"}), shrink=shrink, guard="off")
 
 
 def test_shrinkage_is_on_by_default_and_follows_the_network():
@@ -117,7 +117,7 @@ def test_shrinkage_is_on_by_default_and_follows_the_network():
 
     plain = _count_network()
     shrunk = _count_network(shrink=True)
-    assert Denoiser(plain.unet).shrink and not plain.shrink  # the default is on
+    assert Denoiser(plain.unet).shrink and not plain.shrink  # the default is on (used with guard="off")
     planes = (np.random.default_rng(7).integers(0, 51, (4, 12, 20)) / 50).astype(np.float32)
     d = plain(planes, window=50)
     np.testing.assert_array_equal(shrunk(planes, window=50), shrink_residual(planes, d, 50))
@@ -131,7 +131,7 @@ def test_count_domain_network_sees_counts_and_returns_rates():
     den = _count_network()
     assert den.input_domain == "count"
     planes = (np.random.default_rng(4).integers(0, 11, (4, 12, 20)) / 10).astype(np.float32)
-    as_rates = Denoiser(UNet(den.unet.spec, den.unet.params))  # the same network, told nothing
+    as_rates = Denoiser(UNet(den.unet.spec, den.unet.params), guard="off")  # the same network, told nothing
     for mode in ("visible", "blind"):
         expect = as_rates(planes * np.float32(10), mode) / np.float32(10)
         np.testing.assert_allclose(den(planes, mode, window=10), expect, rtol=1e-6, atol=1e-7)
@@ -146,7 +146,7 @@ def test_count_domain_network_sees_counts_and_returns_rates():
 def test_rate_domain_network_uses_the_window_only_to_shrink(small):
     planes = np.random.default_rng(6).random((4, 12, 20)).astype(np.float32)
     assert small.input_domain == "rate"
-    plain = Denoiser(small.unet, shrink=False)
+    plain = Denoiser(small.unet, shrink=False, guard="off")
     np.testing.assert_array_equal(plain(planes, window=10), plain(planes, window=200))
     np.testing.assert_array_equal(plain(planes, window=10), small(planes))  # no window: no shrinkage
     assert not np.array_equal(small(planes, window=10), small(planes, window=200))
@@ -175,3 +175,23 @@ def test_bad_settings_are_refused_when_made():
         with pytest.raises(ValueError, match=word):
             next(den.frames(stream, 10, **kw))
     assert [k for k, _ in den.frames(stream, 10, count=2)] == [0, 1]
+
+
+def test_guard_is_the_default_and_is_the_sure_blend_of_the_network():
+    """Denoiser(...) = sure_blend(I, network) by default; guard="off" is the network (then the shrinkage)."""
+    from spikeref.denoise.guard import sure_blend
+
+    net = _count_network()  # guard off, no shrinkage: the network alone
+    guarded = Denoiser(net.unet)
+    assert guarded.guard == "sure" and net.guard == "off"
+    planes = (np.random.default_rng(8).integers(0, 11, (4, 16, 24)) / 10).astype(np.float32)
+    expect, alpha = sure_blend(planes, lambda z: net(z, window=10))
+    np.testing.assert_array_equal(guarded(planes, window=10), expect)
+    assert 0 <= alpha.min() and alpha.max() <= 1 and not np.array_equal(expect, net(planes, window=10))
+    np.testing.assert_array_equal(guarded(planes, window=10, guard="off"), guarded(planes, window=10, guard="off"))
+    np.testing.assert_array_equal(Denoiser(net.unet, shrink=False)(planes, window=10, guard="off"),
+                                  net(planes, window=10))
+    with pytest.raises(ValueError, match="guard must be one of sure, off"):
+        Denoiser(net.unet, guard="strong")
+    with pytest.raises(ValueError, match="guard_radius must be an integer"):
+        Denoiser(net.unet, guard_radius=-2)

@@ -67,7 +67,7 @@ def test_count_domain_denoiser_is_told_each_steps_exposure(sample):
     seen = []
 
     class Recording(Denoiser):
-        def __call__(self, planes, mode=None, window=None):
+        def __call__(self, planes, mode=None, window=None, guard=None):
             seen.append(window)
             return np.asarray(planes, np.float32)
 

@@ -15,6 +15,7 @@ from typing import Iterator
 import numpy as np
 
 from spikeref.denoise.blindspot import MODES, _check_cell, blindspot_denoise
+from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, sure_blend
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
 
@@ -23,6 +24,12 @@ __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR"]
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 #: The bundled weights used when none are named.
 DEFAULT_WEIGHTS = WEIGHTS_DIR / "b2u_w16.npz"
+
+
+def _check_guard(guard) -> str:
+    if guard not in GUARDS:
+        raise ValueError(f"guard must be one of {', '.join(GUARDS)}; got {guard!r}")
+    return guard
 
 
 class Denoiser:
@@ -44,7 +51,16 @@ class Denoiser:
         binomial noise of the exposure (:mod:`spikeref.denoise.shrinkage`; not in the paper,
         on by default because it measured better at every window — ``docs/results.md``).
         ``False`` gives the paper's ``D(I)`` exactly.  Needs the exposure: a call without
-        ``window`` (possible for a rate-domain network) skips it.
+        ``window`` (possible for a rate-domain network) skips it.  Not applied under a guard.
+    guard : {"sure", "off"}
+        ``"sure"`` (default; not in the paper): blend the network's output with its input,
+        ``I + α (f(I) − I)``, with ``α`` per pixel chosen by Stein's unbiased risk estimate from
+        the data's own noise level (:mod:`spikeref.denoise.guard`) — one more network pass, and
+        the output is never much worse than the input where the network removes detail.
+        ``"off"``: the network's output (then ``shrink``).  Both ``guard="off", shrink=False``
+        give the paper's ``D(I)``.
+    guard_radius : int
+        Half side of the guard's neighbourhood in plane pixels.
 
     Attributes
     ----------
@@ -57,7 +73,8 @@ class Denoiser:
         from a noisy short one (``spikeref.denoise.train.TrainConfig.input_domain``).
     """
 
-    def __init__(self, unet: UNet, mode: str = "visible", lam: float = 2.0, cell: int = 4, shrink: bool = True):
+    def __init__(self, unet: UNet, mode: str = "visible", lam: float = 2.0, cell: int = 4, shrink: bool = True,
+                 guard: str = "sure", guard_radius: int = DEFAULT_RADIUS):
         if not isinstance(unet, UNet):
             raise TypeError(f"unet must be a spikeref.denoise.unet.UNet; got {type(unet).__name__}")
         if mode not in MODES:
@@ -73,6 +90,10 @@ class Denoiser:
             raise ValueError(f"cell={cell!r} differs from the cell the weights were trained with ({trained!r}); "
                              "the blind and mixed modes must hide pixels as in training")
         self.unet, self.mode, self.lam, self.cell, self.shrink = unet, mode, float(lam), cell, bool(shrink)
+        self.guard = _check_guard(guard)
+        if isinstance(guard_radius, bool) or not isinstance(guard_radius, (int, np.integer)) or guard_radius < 0:
+            raise ValueError(f"guard_radius must be an integer ≥ 0 (plane pixels); got {guard_radius!r}")
+        self.guard_radius = int(guard_radius)
         domain = unet.meta.get("input_domain", unet.meta.get("config", {}).get("input_domain", "rate"))
         if domain not in ("count", "rate"):
             raise ValueError(f"the weights' metadata names an unknown input_domain {domain!r} (count or rate)")
@@ -96,16 +117,30 @@ class Denoiser:
         return cls(UNet.load(path), **kw)
 
     def __repr__(self) -> str:
-        return f"Denoiser({self.unet!r}, mode={self.mode!r}, shrink={self.shrink})"
+        return f"Denoiser({self.unet!r}, mode={self.mode!r}, shrink={self.shrink}, guard={self.guard!r})"
 
-    def __call__(self, planes, mode: str | None = None, window: float | None = None) -> np.ndarray:
+    def __call__(self, planes, mode: str | None = None, window: float | None = None,
+                 guard: str | None = None) -> np.ndarray:
         """Denoise firing-rate planes ``(..., h, w)`` float (e.g. ``(4, H/2, W/2)``); same shape, float32.
 
         ``window`` is the exposure behind the rates, in planes (``W`` of Eq. 4; for a warped
         accumulation its noise-equivalent length).  A count-domain network needs it; a
         rate-domain network uses it only for the residual shrinkage (``shrink``, applied for
-        ``window ≥ 1``).
+        ``window ≥ 1``).  ``guard`` overrides the denoiser's own guard for this call (the
+        pipeline turns it off for the frames it only aligns).
         """
+        use = self.guard if guard is None else _check_guard(guard)
+        if use == "sure":
+            arr = self._check_planes(planes, window)
+            out, _ = sure_blend(arr, lambda z: self._network(z, mode, window), self.guard_radius, window=window)
+            return out
+        out = self._network(planes, mode, window)
+        if self.shrink and window is not None and window >= 1:
+            out = shrink_residual(np.asarray(planes), out, window)
+        return out
+
+    @staticmethod
+    def _check_planes(planes, window) -> np.ndarray:
         arr = np.asarray(planes)
         if arr.ndim < 2:
             raise ValueError(f"planes must have shape (..., h, w); got {arr.shape}")
@@ -115,6 +150,11 @@ class Denoiser:
                                    or not isinstance(window, (int, float, np.integer, np.floating))
                                    or not np.isfinite(window) or window <= 0):
             raise ValueError(f"window must be a positive number of planes; got {window!r}")
+        return arr
+
+    def _network(self, planes, mode, window) -> np.ndarray:
+        """The network in ``mode`` (Eq. 10–11 or ``f(I)``) on rates, without guard or shrinkage."""
+        arr = self._check_planes(planes, window)
         if self.input_domain == "rate":
             out = blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
                                     cell=self.cell, lam=self.lam)
@@ -126,8 +166,6 @@ class Denoiser:
             counts = arr.astype(np.float32) * scale
             out = blindspot_denoise(counts, self.unet, mode or self.mode, cell=self.cell, lam=self.lam)
             out /= scale
-        if self.shrink and window is not None and window >= 1:
-            out = shrink_residual(arr, out, window)
         return out
 
     def frames(self, stream, window: int = 10, start: int = 0, count: int | None = None,

@@ -307,7 +307,7 @@ def _pipeline_fast(i, flow_frames="denoised"):
     params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
                                flow_frames=flow_frames)
     net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
-    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net))
+    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net, guard="off"))
     frames = list(rec.frames(c["frames"][0], c["frames"][-1] + 1, keep_steps=True))
     offsets = range(-(c["K"] // 2), c["K"] // 2 + 1)
     flows = [[[f.flows[(level, o)] if o else np.zeros_like(f.flows[(level, 1)]) for o in offsets]

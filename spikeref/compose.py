@@ -1,0 +1,178 @@
+"""Eq. 14–15 with the step flows composed: each spike window resampled once (not in the paper).
+
+The paper's progressive warping (Fig. 3(b)) resamples the data at every step: Eq. 14 warps the
+spike windows onto ``I_1``, each Eq. 15 step warps the previous step's frames again.  ``I_L(k)``
+is therefore the average, over every **path** ``π = (i_L, …, i_1)`` (``i ∈ {−h … h}``) of the
+``K^L`` paths through the steps, of window ``k + Σ i`` resampled ``L`` times in a row —
+bilinearly each time, which blurs the detail of natural images (the stage ladder in
+``docs/results.md``: on the photographs it costs 1–2 dB against the true-flow ceiling, while
+the flows themselves are nearly right).
+
+This module computes the same average with the same flows, but **moves the sample positions
+instead of the data**: along a path, the position starts at the pixel ``x``, is moved by the
+step-``L−1`` flow of the reference frame, then by the step-``L−2`` flow of the frame reached,
+sampled at the moved position (bilinear interpolation of the *flow*, which is smooth), and so
+on down to step 0; the spike window reached is then sampled **once**, at the composed position,
+with the Catmull–Rom cubic (Keys' kernel with ``a = −½``; it passes through the samples and
+keeps detail that bilinear sampling would blur):
+
+.. math::
+
+    I_L(x, k) = \\frac{\\sum_\\pi v_\\pi(x)\\, S_{k+Σπ}(x_\\pi)}{W \\sum_\\pi v_\\pi(x)},
+    \\qquad x_\\pi = x_{L} ,\\; x_0 = x,\\; x_{m+1} = x_m + F_{L-1-m}(x_m;\\, k_m, k_m + i_{L-m}),
+
+where ``S_j`` is window ``j``'s spike count, ``k_m`` the frame reached after ``m`` hops and
+``v_π(x) ∈ {0, 1}`` says whether ``x_π`` lies inside the plane (``−½ ≤ y ≤ h − ½``, the same for
+``x``).  Every path weighs the same, so window ``j`` carries the weight of Eq. 14–15's
+binomial count of paths that end in it.
+
+Interpretations
+---------------
+* Flows are sampled bilinearly at a moved position, clamped to the grid beyond its border
+  (the flow of the outermost pixel continues).
+* The cubic taps beyond the border take the nearest edge pixel (clamped).  A position outside
+  the plane is dropped (``v_π = 0``) and the average renormalised over the paths left, as
+  :mod:`spikeref.warp` drops samples outside the image.
+* A hop with ``i = 0`` does not move (the reference frame's zero flow).
+* Paths are enumerated with :func:`path_table`; the literal oracle is
+  :func:`spikeref.oracles.compose.composed_warp_oracle`.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from spikeref._jit import njit, prange
+
+__all__ = ["path_table", "composed_warp", "catmull_rom_weights"]
+
+
+@njit(inline="always")
+def _cr(t):
+    """Catmull–Rom weights of the four taps at offsets −1, 0, 1, 2 for a fraction ``t ∈ [0, 1)``."""
+    t2 = t * t
+    t3 = t2 * t
+    return (-0.5 * t3 + t2 - 0.5 * t, 1.5 * t3 - 2.5 * t2 + 1.0, -1.5 * t3 + 2.0 * t2 + 0.5 * t, 0.5 * t3 - 0.5 * t2)
+
+
+def catmull_rom_weights(t: float) -> tuple:
+    """The four Catmull–Rom weights (offsets −1, 0, 1, 2) at fraction ``t``; they sum to 1."""
+    return tuple(float(v) for v in _cr(float(t)))
+
+
+@njit(inline="always")
+def _clamp(i, n):
+    return 0 if i < 0 else (n - 1 if i >= n else i)
+
+
+@njit(inline="always")
+def _flow_at(bank, f, y, x, h, w):
+    """Bilinear sample of flow ``f`` of ``bank`` at ``(y, x)``, clamped to the grid: ``(dy, dx)``."""
+    yc = min(max(y, 0.0), h - 1.0)
+    xc = min(max(x, 0.0), w - 1.0)
+    y0 = int(np.floor(yc))
+    x0 = int(np.floor(xc))
+    y1 = min(y0 + 1, h - 1)
+    x1 = min(x0 + 1, w - 1)
+    fy = yc - y0
+    fx = xc - x0
+    dy = ((1 - fy) * ((1 - fx) * bank[f, 0, y0, x0] + fx * bank[f, 0, y0, x1])
+          + fy * ((1 - fx) * bank[f, 0, y1, x0] + fx * bank[f, 0, y1, x1]))
+    dx = ((1 - fy) * ((1 - fx) * bank[f, 1, y0, x0] + fx * bank[f, 1, y0, x1])
+          + fy * ((1 - fx) * bank[f, 1, y1, x0] + fx * bank[f, 1, y1, x1]))
+    return dy, dx
+
+
+@njit(parallel=True)
+def _composed_warp(counts, bank, hops, targets, inv_window, out):
+    """counts (n, C, h, w), bank (nf, 2, h, w), hops (P, L) int64 (−1: no move), targets (P,) → out (C, h, w)."""
+    n, nc, h, w = counts.shape
+    npath, nhop = hops.shape
+    for y in prange(h):
+        acc = np.zeros(nc)
+        for x in range(w):
+            acc[:] = 0.0
+            wsum = 0.0
+            for p in range(npath):
+                sy = np.float64(y)
+                sx = np.float64(x)
+                for m in range(nhop):
+                    f = hops[p, m]
+                    if f >= 0:
+                        dy, dx = _flow_at(bank, f, sy, sx, h, w)
+                        sy += dy
+                        sx += dx
+                if sy < -0.5 or sy > h - 0.5 or sx < -0.5 or sx > w - 0.5:
+                    continue
+                y0 = int(np.floor(sy))
+                x0 = int(np.floor(sx))
+                wy = _cr(sy - y0)
+                wx = _cr(sx - x0)
+                t = targets[p]
+                for c in range(nc):
+                    s = 0.0
+                    for a in range(4):
+                        yy = _clamp(y0 - 1 + a, h)
+                        row = (wx[0] * counts[t, c, yy, _clamp(x0 - 1, w)] + wx[1] * counts[t, c, yy, _clamp(x0, w)]
+                               + wx[2] * counts[t, c, yy, _clamp(x0 + 1, w)]
+                               + wx[3] * counts[t, c, yy, _clamp(x0 + 2, w)])
+                        s += wy[a] * row
+                    acc[c] += s
+                wsum += 1.0
+            for c in range(nc):
+                out[c, y, x] = acc[c] * inv_window / wsum if wsum > 0 else 0.0
+
+
+def path_table(K: int, L: int) -> list[tuple]:
+    """The ``K^L`` paths ``(i_L, …, i_1)`` of Eq. 14–15, first hop first, ``i ∈ {−h … h}``."""
+    h = (K - 1) // 2
+    return list(itertools.product(range(-h, h + 1), repeat=L))
+
+
+def composed_warp(counts, bank, hops, targets, window: float) -> np.ndarray:
+    """``I_L`` of one frame from its spike windows and the composed step flows (module docstring).
+
+    Parameters
+    ----------
+    counts : ndarray ``(n, C, h, w)``
+        Spike counts of the ``n`` windows the paths end in (``C`` Bayer planes).
+    bank : ndarray ``(nf, 2, h, w)`` float
+        The step flows the paths use, ``(dy, dx)`` in plane pixels (:mod:`spikeref.align`'s
+        convention).
+    hops : ndarray ``(P, L)`` int
+        For each path, the bank index of the flow of each hop in order (first hop = the output
+        step's flow of the reference frame); ``−1`` for a hop that does not move.
+    targets : ndarray ``(P,)`` int
+        For each path, the index into ``counts`` of the window it ends in.
+    window : float
+        ``W``: the counts are divided by it (rates in spikes per readout).
+
+    Returns
+    -------
+    ndarray ``(C, h, w) float32``
+    """
+    c = np.asarray(counts)
+    if c.ndim != 4:
+        raise ValueError(f"counts must have shape (n, C, h, w); got {c.shape}")
+    b = np.asarray(bank)
+    if b.ndim != 4 or b.shape[1] != 2 or b.shape[2:] != c.shape[2:]:
+        raise ValueError(f"bank must have shape (nf, 2, {c.shape[2]}, {c.shape[3]}); got {b.shape}")
+    hp = np.asarray(hops)
+    tg = np.asarray(targets)
+    if hp.ndim != 2 or not np.issubdtype(hp.dtype, np.integer):
+        raise ValueError(f"hops must be a (P, L) integer array; got {hp.shape} {hp.dtype}")
+    if tg.shape != (hp.shape[0],) or not np.issubdtype(tg.dtype, np.integer):
+        raise ValueError(f"targets must be a ({hp.shape[0]},) integer array; got {tg.shape} {tg.dtype}")
+    if hp.size and (hp.min() < -1 or hp.max() >= b.shape[0]):
+        raise ValueError(f"hops must index the bank (−1 … {b.shape[0] - 1})")
+    if tg.size and (tg.min() < 0 or tg.max() >= c.shape[0]):
+        raise ValueError(f"targets must index the counts (0 … {c.shape[0] - 1})")
+    if isinstance(window, bool) or not np.isfinite(window) or window <= 0:
+        raise ValueError(f"window must be a positive number of planes; got {window!r}")
+    out = np.zeros(c.shape[1:], np.float32)
+    _composed_warp(np.ascontiguousarray(c, dtype=np.float32), np.ascontiguousarray(b, dtype=np.float32),
+                   np.ascontiguousarray(hp, dtype=np.int64), np.ascontiguousarray(tg, dtype=np.int64),
+                   1.0 / float(window), out)
+    return out

@@ -1,0 +1,86 @@
+"""The composed warp (spikeref.compose): the oracle, what it reduces to, and that one resample keeps detail."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from spikeref.compose import catmull_rom_weights, composed_warp, path_table
+from spikeref.oracles.compose import composed_warp_oracle
+from spikeref.warp import warp_average
+
+
+def test_catmull_rom_weights():
+    assert catmull_rom_weights(0.0) == (0.0, 1.0, 0.0, 0.0)  # it passes through the samples
+    w = catmull_rom_weights(0.5)
+    assert w == pytest.approx((-0.0625, 0.5625, 0.5625, -0.0625)) and sum(w) == pytest.approx(1.0)
+
+
+def test_path_table():
+    paths = path_table(3, 2)
+    assert len(paths) == 9 and paths[0] == (-1, -1) and paths[4] == (0, 0)
+    assert len(path_table(5, 3)) == 125 and path_table(1, 3) == [(0, 0, 0)]
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(2, 7), st.integers(2, 7), st.integers(1, 3), st.integers(0, 10_000))
+def test_matches_the_oracle(h, w, nhop, seed):
+    rng = np.random.default_rng(seed)
+    counts = rng.integers(0, 11, (3, 2, h, w)).astype(np.float32)
+    bank = rng.uniform(-1.5, 1.5, (4, 2, h, w)).astype(np.float32)
+    hops = rng.integers(-1, 4, (5, nhop))
+    targets = rng.integers(0, 3, 5)
+    got = composed_warp(counts, bank, hops, targets, 10)
+    np.testing.assert_allclose(got, composed_warp_oracle(counts, bank, hops, targets, 10), rtol=1e-5, atol=1e-6)
+
+
+def test_integer_flows_reduce_to_shifted_windows():
+    """With whole-pixel flows the cubic hits samples exactly: the average of the shifted windows."""
+    rng = np.random.default_rng(2)
+    counts = rng.integers(0, 11, (2, 1, 12, 14)).astype(np.float32)
+    bank = np.zeros((1, 2, 12, 14), np.float32)
+    bank[0, 1] = 1.0  # one pixel to the right
+    out = composed_warp(counts, bank, np.array([[-1], [0]]), np.array([0, 1]), 10)
+    expect = (counts[0, 0, :, :-1] + counts[1, 0, :, 1:]) / 20
+    np.testing.assert_allclose(out[0, :, :-1], expect, rtol=1e-6)
+    # the last column's second sample falls outside: renormalised to the reference alone
+    np.testing.assert_allclose(out[0, :, -1], counts[0, 0, :, -1] / 10, rtol=1e-6)
+
+
+def test_constant_flows_compose_like_the_chain_and_keep_more_detail():
+    """Constant half-pixel flows: the chained bilinear warps blur a fine pattern; one cubic resample keeps it."""
+    h, w = 16, 40
+    x = np.arange(w)
+    pattern = (0.5 + 0.4 * np.cos(2 * np.pi * x / 3.0))[None, None, :] * np.ones((1, 1, h, w))
+    shift = 0.5
+    # window j shows the pattern moved by j·shift px; flows from a frame to its neighbour are ±shift
+    wins = np.stack([np.interp(x - j * shift, x, pattern[0, 0, 0], period=w)[None, None, :] * np.ones((1, h, w))
+                     for j in range(-2, 3)]).astype(np.float32)[:, :, :, :]
+    bank = np.zeros((2, 2, h, w), np.float32)
+    bank[0, 1], bank[1, 1] = -shift, shift  # backward flow to the window on the left / right
+    paths = path_table(3, 2)
+    hops = np.array([[-1 if i == 0 else (0 if i < 0 else 1) for i in p] for p in paths])
+    targets = np.array([2 + sum(p) for p in paths])
+    composed = composed_warp(wins, bank, hops, targets, 1.0)
+    # the chain: step 1 warps windows k-1, k, k+1 for frames -1, 0, 1; step 2 warps those again
+    flows = np.stack([np.stack([np.zeros((h, w)), np.full((h, w), i * shift)]) for i in (-1, 0, 1)])
+    step1 = [warp_average(wins[c - 1:c + 2], flows) for c in (1, 2, 3)]
+    chain = warp_average(np.stack(step1), flows)[0]
+    inner = (slice(None), slice(4, -4))
+    truth = pattern[0, 0][inner]
+    assert np.abs(composed[0][inner] - truth).mean() < 0.5 * np.abs(chain[inner] - truth).mean()
+
+
+def test_bad_arguments():
+    c = np.zeros((2, 1, 4, 4), np.float32)
+    b = np.zeros((1, 2, 4, 4), np.float32)
+    with pytest.raises(ValueError, match="counts must have shape"):
+        composed_warp(c[0], b, np.zeros((1, 1), int), np.zeros(1, int), 1)
+    with pytest.raises(ValueError, match="bank must have shape"):
+        composed_warp(c, b[:, :1], np.zeros((1, 1), int), np.zeros(1, int), 1)
+    with pytest.raises(ValueError, match="hops must index the bank"):
+        composed_warp(c, b, np.full((1, 1), 3), np.zeros(1, int), 1)
+    with pytest.raises(ValueError, match="targets must index the counts"):
+        composed_warp(c, b, np.zeros((1, 1), int), np.full(1, 2), 1)
+    with pytest.raises(ValueError, match="window must be a positive"):
+        composed_warp(c, b, np.zeros((1, 1), int), np.zeros(1, int), 0)

@@ -1,0 +1,137 @@
+"""The SURE guard (spikeref.denoise.guard): its noise estimate, its α against the oracle, and what it buys."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from spikeref.denoise.guard import (noise_sigma, probe_step, rademacher_probe, sure_alpha, sure_blend)
+from spikeref.oracles.guard import noise_sigma_oracle, sure_alpha_oracle
+
+
+def _smooth(h, w, seed):
+    from scipy.ndimage import gaussian_filter
+
+    rng = np.random.default_rng(seed)
+    x = gaussian_filter(rng.random((h, w)), 3)
+    return 0.1 + 0.5 * (x - x.min()) / (x.max() - x.min())
+
+
+def test_noise_sigma_is_unbiased_on_white_gaussian_noise():
+    rng = np.random.default_rng(0)
+    x = rng.normal(0, 0.05, (3, 200, 240)) + _smooth(200, 240, 1)  # smooth signal: cancelled by the kernel
+    np.testing.assert_allclose(noise_sigma(x), 0.05, rtol=0.03)
+    np.testing.assert_allclose(noise_sigma(x, keep=1.0), 0.05, rtol=0.03)
+    assert noise_sigma(np.ones((2, 2))) == 0.0 and noise_sigma(np.full((5, 5), 0.3)) == 0.0
+
+
+def test_noise_sigma_sees_quantised_spike_rates():
+    """Rates of W = 10 readouts are multiples of 0.1; a median-based estimate would say 0 here."""
+    rng = np.random.default_rng(3)
+    p = _smooth(120, 160, 2)
+    rates = rng.binomial(10, p) / 10.0
+    truth = np.sqrt(np.mean(p * (1 - p) / 10))
+    assert 0.8 * truth < noise_sigma(rates) < 1.1 * truth
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(3, 9), st.integers(3, 9), st.floats(0.2, 1.0), st.integers(0, 1000))
+def test_noise_sigma_matches_the_oracle(h, w, keep, seed):
+    plane = np.random.default_rng(seed).random((h, w))
+    assert noise_sigma(plane, keep=keep) == pytest.approx(noise_sigma_oracle(plane, keep=keep), rel=1e-9, abs=1e-15)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(1, 7), st.integers(1, 7), st.integers(0, 3), st.integers(0, 1000))
+def test_sure_alpha_matches_the_oracle(h, w, radius, seed):
+    rng = np.random.default_rng(seed)
+    y = rng.random((2, h, w))
+    f = y + rng.normal(0, 0.1, y.shape)
+    b = rademacher_probe(y.shape, seed)
+    fb = f + 0.01 * b * rng.random(y.shape)
+    eps, sigma = np.array([0.01, 0.02]), np.array([0.1, 0.05])
+    got = sure_alpha(y, f, fb, b, eps, sigma, radius)
+    for c in range(2):
+        np.testing.assert_allclose(got[c], sure_alpha_oracle(y[c], f[c], fb[c], b[c], eps[c], sigma[c], radius),
+                                   rtol=1e-9, atol=1e-12)
+
+
+def test_sure_keeps_a_good_denoiser_and_rejects_a_harmful_one():
+    """Known answers: the ideal linear shrinker is kept (α ≈ 1); a map that wipes detail is undone (α ≈ 0)."""
+    rng = np.random.default_rng(5)
+    x = _smooth(96, 128, 4)
+    sigma = 0.04
+    y = x + rng.normal(0, sigma, x.shape)
+    # a denoiser that knows the truth is kept: f(y) = x has zero divergence and removes exactly the noise
+    out, alpha = sure_blend(y, lambda z: x.astype(np.float32), sigma=sigma)
+    assert alpha.mean() > 0.9 and np.mean((out - x) ** 2) < 0.2 * sigma ** 2
+    # a "denoiser" that replaces everything by the mean (kills the signal) is rejected where signal lives
+    detail = x + 0.2 * np.sin(np.arange(128) / 2.0)[None, :]
+    y2 = detail + rng.normal(0, sigma, x.shape)
+    out2, alpha2 = sure_blend(y2, lambda z: np.full_like(z, z.mean()), sigma=sigma)
+    assert alpha2.mean() < 0.1
+    assert np.mean((out2 - detail) ** 2) < 1.3 * sigma ** 2  # about the input's error, never the mean's
+
+
+def test_sure_blend_is_deterministic_and_checks_its_input():
+    y = np.random.default_rng(1).random((4, 16, 16)).astype(np.float32)
+
+    def den(z):
+        return z * 0.5 + 0.25
+
+    a, _ = sure_blend(y, den)
+    b, _ = sure_blend(y.copy(), den)
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(rademacher_probe((3, 4)), rademacher_probe((3, 4)))
+    assert set(np.unique(rademacher_probe((50,)))) == {-1.0, 1.0}
+    np.testing.assert_allclose(probe_step([0.1, 0.0]), [0.005, 0.0])
+    with pytest.raises(ValueError, match="noisy must be finite"):
+        sure_blend(np.full((4, 4), np.nan, np.float32), den)
+    with pytest.raises(ValueError, match="the denoiser returned shape"):
+        sure_blend(y, lambda z: z[0])
+    with pytest.raises(ValueError, match="radius must be an integer ≥ 0"):
+        sure_alpha(y, y, y, y, 0.1, 0.1, radius=-1)
+    with pytest.raises(ValueError, match="keep must be a fraction"):
+        noise_sigma(y, keep=0)
+
+
+def test_sure_alpha_with_one_sigma_per_pixel_matches_the_oracle():
+    rng = np.random.default_rng(9)
+    y = rng.random((1, 6, 7))
+    f = y + rng.normal(0, 0.1, y.shape)
+    b = rademacher_probe(y.shape, 3)
+    fb = f + 0.01 * b
+    sig = rng.uniform(0.01, 0.2, y.shape)
+    np.testing.assert_allclose(sure_alpha(y, f, fb, b, [0.01], sig, 2)[0],
+                               sure_alpha_oracle(y[0], f[0], fb[0], b[0], 0.01, sig[0], 2), rtol=1e-7, atol=1e-12)
+
+
+def test_quantisation_floor():
+    """The variance of ⌊φ + pW⌋/W over a uniform phase φ, measured, against the floor."""
+    from spikeref.denoise.guard import quantisation_variance
+    from spikeref.oracles.guard import quantisation_variance_oracle
+
+    rng = np.random.default_rng(0)
+    for p, w in ((0.01, 10), (0.37, 10), (0.5, 50)):
+        phase = rng.random(200_000)
+        counts = np.floor(phase + p * w)
+        measured = counts.var() / w ** 2
+        floor = float(quantisation_variance(p, w))
+        assert floor == pytest.approx(quantisation_variance_oracle(p, w))
+        if p * w < 1:
+            assert floor == pytest.approx(measured, rel=0.15)  # Poisson-like: p/W
+        else:
+            assert floor == pytest.approx(1 / (6 * w * w))  # the phase average of {pW}(1 − {pW})/W²
+    assert float(quantisation_variance(0.0, 10)) == 0.0 and float(quantisation_variance(1.0, 10)) == 0.0
+
+
+def test_low_light_is_not_read_as_noise_free():
+    """Mostly-zero counts: the trimmed estimate says σ ≈ 0, the floor keeps the guard from returning the input."""
+    rng = np.random.default_rng(4)
+    p = np.full((1, 64, 64), 0.002)
+    y = (rng.binomial(10, p) / 10.0).astype(np.float32)
+    assert noise_sigma(y)[0] == 0.0
+    smooth = np.full_like(y, y.mean())
+    _, alpha_floor = sure_blend(y, lambda z: smooth, window=10)
+    _, alpha_none = sure_blend(y, lambda z: smooth)
+    assert alpha_none.max() == 0.0 and alpha_floor.mean() > 0.8
