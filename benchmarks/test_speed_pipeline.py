@@ -43,17 +43,26 @@ def _run(stream, params, den, n_frames):
     return (time.perf_counter() - t0) / n_frames, rec.timings
 
 
-@pytest.mark.parametrize("flow_frames", ["denoised", "smoothed"])
+def _config(name):
+    """``(params, denoiser)`` of a named configuration (the same width-16 network in both)."""
+    net = UNet.random(UNetSpec(width=16), seed=0)
+    if name == "paper":  # Fig. 3(b) as the paper: progressive warps, flows on D(I_l), no guard (shrinkage on)
+        return ReconstructParams.paper(), Denoiser(net, guard="off")
+    if name == "paper-smoothed":
+        return ReconstructParams.paper(flow_frames="smoothed"), Denoiser(net, guard="off")
+    return ReconstructParams(), Denoiser(net)  # the defaults: composed warp, smoothed flow frames, z = 3, guard
+
+
+@pytest.mark.parametrize("config", ["paper", "paper-smoothed", "defaults"])
 @pytest.mark.parametrize("size, n_frames", [((250, 400), 12), ((1000, 1000), 3)])
-def test_pipeline_fps(benchmark, report, size, n_frames, flow_frames):
-    den = Denoiser(UNet.random(UNetSpec(width=16), seed=0))
+def test_pipeline_fps(benchmark, report, size, n_frames, config):
+    params, den = _config(config)
     stream = _stream(*size, planes=(n_frames + 6) * 10 + 10)
-    params = ReconstructParams(flow_frames=flow_frames)
     _run(stream, params, den, 1)  # compile
     per_frame, timings = benchmark.pedantic(lambda: _run(stream, params, den, n_frames), rounds=1, iterations=1)
-    base, _ = _run(stream, ReconstructParams(L=0), den, n_frames)
+    base, _ = _run(stream, ReconstructParams(L=0), Denoiser(den.unet, guard="off"), n_frames)
     total = sum(timings.values())
     parts = ", ".join(f"{k} {v / total:4.0%}" for k, v in timings.items())
-    report(f"pipeline W=10 K=3 L=3, flow on {flow_frames} frames, {size[0]}x{size[1]}",
+    report(f"pipeline W=10 K=3 L=3, {config}, {size[0]}x{size[1]}",
            f"{1 / per_frame:6.2f} frames/s ({per_frame:6.3f} s/frame); denoised TFP (L=0) {1 / base:6.2f} frames/s; "
            f"ratio {per_frame / base:4.1f}x; time: {parts}")

@@ -137,7 +137,6 @@ def parse_frames_option(text: str | None):
 def cmd_reconstruct(args) -> int:
     from tqdm import tqdm
 
-    from spikeref.align import AlignParams
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.io.exr import read_exr
     from spikeref.pipeline import ReconstructParams, Reconstructor
@@ -148,16 +147,19 @@ def cmd_reconstruct(args) -> int:
         video, exr_dir = Path("reconstruction.mp4"), Path("reconstruction_exr")
     if args.resume and exr_dir is None:
         raise CliError("--resume needs --exr-dir (the frames already written are found there)")
-    params = ReconstructParams(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align,
-                               align_params=AlignParams(), flow_frames=args.flow_frames)
+    make = ReconstructParams.paper if args.paper else ReconstructParams
+    chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp)) if v is not None}
+    params = make(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align, **chosen)
     if args.workers is not None or args.scheduler is not None:
-        if args.no_shrink or args.guard != "sure":
-            raise CliError("--no-shrink and --guard are not passed to Dask workers yet; run without "
+        if args.no_shrink or args.guard is not None or args.paper:
+            raise CliError("--no-shrink, --guard and --paper are not passed to Dask workers yet; run without "
                            "--workers/--scheduler")
         return _reconstruct_on_dask(args, params, video, exr_dir)
     stream = open_input(args)
     a, b = parse_frames_option(args.frames)
-    den = Denoiser.load(args.weights, mode=args.mode, shrink=not args.no_shrink, guard=args.guard)
+    guard = args.guard or ("off" if args.paper else "sure")
+    shrink = not (args.no_shrink or args.paper)
+    den = Denoiser.load(args.weights, mode=args.mode, shrink=shrink, guard=guard)
     rec = Reconstructor(stream, params, den)
     avail = rec.frames_available
     a = avail.start if a is None else a
@@ -176,7 +178,9 @@ def cmd_reconstruct(args) -> int:
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
           f" → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
           f"{args.mode}{', no alignment' if args.no_align else ''}"
-          f"{', flow on smoothed frames' if args.flow_frames == 'smoothed' and not args.no_align else ''})"
+          f"{', the paper' + chr(39) + 's procedure' if args.paper else ''}"
+          f"{', flow on ' + params.flow_frames + ' frames, ' + params.warp + ' warp' if not args.no_align else ''}"
+          f", guard {guard})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
     with FrameSink(video, exr_dir, fps=args.fps, half=args.half) as sink:
         bar = tqdm(total=b - a, desc="reconstruct", unit="frame")
@@ -535,18 +539,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-L", type=int, default=3, help="warping steps (0: denoised TFP only)")
     p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
                    help="denoiser inference: visible (1 pass), blind (Eq. 10-11, 16 passes), mixed (17)")
-    p.add_argument("--guard", choices=["sure", "off"], default="sure",
-                   help="sure: blend the network's output with its input by Stein's unbiased risk estimate, "
-                        "per pixel, from the data's own noise level (one more network pass; not in the paper; "
-                        "spikeref.denoise.guard); off: the network's output, then the shrinkage below")
+    p.add_argument("--paper", action="store_true",
+                   help="the paper's procedure exactly: flows on the denoised frames, the plain HDR+ search, "
+                        "Eq. 14-15 step by step, the network's D(I) without guard or shrinkage (the defaults go "
+                        "beyond the paper where the stage ladder measured a gain: docs/results.md)")
+    p.add_argument("--guard", choices=["sure", "off"], default=None,
+                   help="sure (default): blend the network's output with its input by Stein's unbiased risk "
+                        "estimate, per pixel, from the data's own noise level (one more network pass; not in the "
+                        "paper; spikeref.denoise.guard); off: the network's output, then the shrinkage below")
     p.add_argument("--no-shrink", action="store_true",
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
-    p.add_argument("--flow-frames", choices=["denoised", "smoothed"], default="denoised",
-                   help="what each step's flow is estimated on: denoised (the paper, Fig. 3b: L+1 denoiser passes "
-                        "per frame) or smoothed (a Gaussian of σ = 1 Bayer-plane pixel on the raw frames; one "
-                        "denoiser pass per frame, about 3x faster, not in the paper; see docs/results.md)")
+    p.add_argument("--flow-frames", choices=["denoised", "smoothed"], default=None,
+                   help="what each step's flow is estimated on: smoothed (default; a Gaussian of σ = 1 "
+                        "Bayer-plane pixel on the raw frames, one denoiser pass per frame, not in the paper) or "
+                        "denoised (the paper, Fig. 3b: L+1 denoiser passes per frame)")
+    p.add_argument("--warp", choices=["composed", "progressive"], default=None,
+                   help="how the output is warped: composed (default; the step flows composed, each spike window "
+                        "resampled once with a cubic, not in the paper) or progressive (Eq. 14-15 step by step)")
     p.add_argument("--weights", type=Path, default=None,
                    help="denoiser weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little "
                         "sharper)")

@@ -34,6 +34,8 @@ Interpretations
   the plane is dropped (``v_π = 0``) and the average renormalised over the paths left, as
   :mod:`spikeref.warp` drops samples outside the image.
 * A hop with ``i = 0`` does not move (the reference frame's zero flow).
+* The cubic's negative lobes can overshoot at sharp edges: the result is clipped to ``[0, 1]``
+  spikes per readout, the range of a rate.
 * Paths are enumerated with :func:`path_table`; the literal oracle is
   :func:`spikeref.oracles.compose.composed_warp_oracle`.
 """
@@ -122,7 +124,8 @@ def _composed_warp(counts, bank, hops, targets, inv_window, out):
                     acc[c] += s
                 wsum += 1.0
             for c in range(nc):
-                out[c, y, x] = acc[c] * inv_window / wsum if wsum > 0 else 0.0
+                v = acc[c] * inv_window / wsum if wsum > 0 else 0.0
+                out[c, y, x] = min(max(v, 0.0), 1.0)  # the cubic may overshoot; a rate lies in [0, 1]
 
 
 def path_table(K: int, L: int) -> list[tuple]:

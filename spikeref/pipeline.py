@@ -31,6 +31,11 @@ Interpretations (DESIGN §4)
   2×2 luma of ``I_l`` (σ = :data:`FLOW_SMOOTHING_SIGMA` plane pixels) instead of the luma of
   ``D(I_l)``: the U-Net then runs once per output frame (for ``R_L``) instead of ``L + 1``
   times.  The default, ``"denoised"``, is Fig. 3(b).
+* ``AlignParams.prefer_centre > 0`` (an option, not in the paper; off by default) turns on the
+  noise-aware search of :mod:`spikeref.align`; the pipeline tells it the noise of ``I_l``,
+  measured on the 2×2 luma of the frames before denoising (variance map and the correlation of
+  the two frames' noise — adjacent windows' counts are anti-correlated), whatever the flow is
+  estimated on (``_State.noise_aware_flow``).
 * ``K = 1`` or ``L = 0`` reduces to the denoised TFP ``Ψ[D(I_0)]`` (no flow is computed);
   ``align=False`` uses zero flow (plain accumulation over the support: TFP with a
   ``((K−1)L+1)·W`` window, then ``D`` and Ψ) — for the accuracy-vs-time study.
@@ -63,11 +68,18 @@ from spikeref.stream import SpikeStream
 from spikeref.warp import warp_average, warp_spike_windows
 
 __all__ = ["ReconstructParams", "ReconstructedFrame", "Reconstructor", "reconstruct", "frame_range",
-           "support_planes", "exposure_planes", "FLOW_FRAMES", "FLOW_SMOOTHING_SIGMA", "flow_luma"]
+           "support_planes", "exposure_planes", "FLOW_FRAMES", "FLOW_SMOOTHING_SIGMA", "WARPS", "DEFAULT_PREFER_CENTRE",
+           "flow_luma"]
 
 #: What the flow of each step is estimated on: ``"denoised"`` — the 2×2 luma of ``D(I_l)``, as
 #: Fig. 3(b) — or ``"smoothed"`` — the 2×2 luma of ``I_l`` itself, smoothed by a Gaussian.
 FLOW_FRAMES = ("denoised", "smoothed")
+#: ``AlignParams.prefer_centre`` of the default reconstruction (the noise-aware search; 0 in the
+#: paper): chosen among 0, 2, 3, 4 on the real outdoor recording and the benchmark scenes
+#: (``scripts/study_align_real.py``, docs/results.md).
+DEFAULT_PREFER_CENTRE = 3.0
+#: How the output frame is made from the step flows (:class:`ReconstructParams`).
+WARPS = ("progressive", "composed")
 #: σ of the Gaussian of ``flow_frames="smoothed"``, in Bayer-plane pixels.  Chosen on the
 #: benchmark scenes among 0, 0.7, 1 and 1.5 (``scripts/study_flow_frames.py``, docs/results.md,
 #: session 11): 0.7 and 1 tie on the mean PSNR over W/K/L = 10/3/3, 10/5/2, 20/5/2, 20/3/3
@@ -78,6 +90,10 @@ FLOW_SMOOTHING_SIGMA = 1.0
 @dataclass(frozen=True)
 class ReconstructParams:
     """Hyper-parameters of the progressive warping (defaults: the paper's W = 10, K = 3, L = 3).
+
+    The defaults of ``align_params``, ``warp`` and ``flow_frames`` go beyond the paper, each for
+    the gain the stage ladder measured (``docs/results.md``); :meth:`paper` gives the paper's
+    procedure exactly.
 
     Parameters
     ----------
@@ -92,12 +108,22 @@ class ReconstructParams:
     align : bool
         Estimate the flow (True) or use zero flow (False: plain accumulation over the support).
     align_params : AlignParams
-        Alignment parameters (:mod:`spikeref.align`).
-    flow_frames : {"denoised", "smoothed"}
-        What each step's flow is estimated on: the luma of the denoised frames ``D(I_l)``
-        (default, the paper's Fig. 3(b): ``L + 1`` denoiser passes per output frame) or a
-        Gaussian-smoothed luma of ``I_l`` (:func:`flow_luma`; one denoiser pass per output
-        frame — a speed option that is not in the paper).
+        Alignment parameters (:mod:`spikeref.align`); with ``prefer_centre > 0`` the search is
+        noise-aware, told the noise of the frames before denoising (module doc).  Default:
+        ``AlignParams(prefer_centre=3)`` (:data:`DEFAULT_PREFER_CENTRE`); the paper's HDR+ search
+        is ``AlignParams()``.
+    warp : {"composed", "progressive"}
+        How the output ``I_L`` is made from the flows: ``"progressive"`` — Eq. 14 then Eq. 15
+        ``L − 1`` times, each step resampling the previous one (the paper); ``"composed"``
+        (default) — the same flows composed along every path through the steps, so each spike
+        window is resampled once, with a cubic (:mod:`spikeref.compose`; not in the paper).
+        The frames of steps ``< L`` (what the flows are estimated on) are made progressively
+        either way.
+    flow_frames : {"smoothed", "denoised"}
+        What each step's flow is estimated on: the luma of the denoised frames ``D(I_l)`` (the
+        paper's Fig. 3(b): ``L + 1`` denoiser passes per output frame) or a Gaussian-smoothed
+        luma of ``I_l`` (default; :func:`flow_luma`; one denoiser pass per output frame, not in
+        the paper).
     """
 
     window: int = 10
@@ -105,8 +131,9 @@ class ReconstructParams:
     L: int = 3
     mode: str = "visible"
     align: bool = True
-    align_params: AlignParams = field(default_factory=AlignParams)
-    flow_frames: str = "denoised"
+    align_params: AlignParams = field(default_factory=lambda: AlignParams(prefer_centre=DEFAULT_PREFER_CENTRE))
+    flow_frames: str = "smoothed"
+    warp: str = "composed"
 
     def __post_init__(self):
         from spikeref.denoise.blindspot import MODES
@@ -123,6 +150,8 @@ class ReconstructParams:
             raise ValueError(f"flow_frames must be one of {', '.join(FLOW_FRAMES)}; got {self.flow_frames!r}")
         if not isinstance(self.align_params, AlignParams):
             raise TypeError(f"align_params must be an AlignParams; got {type(self.align_params).__name__}")
+        if self.warp not in WARPS:
+            raise ValueError(f"warp must be one of {', '.join(WARPS)}; got {self.warp!r}")
 
     @property
     def half(self) -> int:
@@ -138,6 +167,16 @@ class ReconstructParams:
     def support_windows(self) -> int:
         """``(K − 1)L + 1`` windows."""
         return 2 * self.reach + 1
+
+    @classmethod
+    def paper(cls, **kw) -> "ReconstructParams":
+        """The paper's procedure exactly (Fig. 3(b)): progressive warping, flows on the denoised
+        frames, the HDR+ search without the noise-aware preference.  Pair it with
+        ``Denoiser(guard="off", shrink=False)`` for the paper's ``D``; ``kw`` sets any other field.
+        """
+        base = dict(warp="progressive", flow_frames="denoised", align_params=AlignParams())
+        base.update(kw)
+        return cls(**base)
 
 
 def exposure_planes(window: int, K: int, level: int) -> float:
@@ -334,7 +373,8 @@ class _State:
         ring = self.levels[level]
         if k not in ring:
             planes, flows = self._compute(level, k)
-            ring[k] = [planes, None, None, flows if self.keep_flows else None]
+            keep = self.keep_flows or (self.p.warp == "composed" and level < self.p.L)
+            ring[k] = [planes, None, None, flows if keep else None]
         return ring[k][0]
 
     def denoised(self, level: int, k: int) -> np.ndarray:
@@ -380,8 +420,27 @@ class _State:
             if i:
                 alt = self.luma(level, k + i)
                 with self.timed("align"):
-                    out[j] = align(ref, alt, step=tile_step, params=p.align_params)
+                    if p.align_params.prefer_centre > 0:
+                        out[j] = self.noise_aware_flow(ref, alt, level, k, k + i)
+                    else:
+                        out[j] = align(ref, alt, step=tile_step, params=p.align_params)
         return out
+
+    def noise_aware_flow(self, ref: np.ndarray, alt: np.ndarray, level: int, k: int, j: int) -> np.ndarray:
+        """``align`` with the noise of ``I_l(k)`` and ``I_l(j)`` (``AlignParams.prefer_centre > 0``).
+
+        The noise variance (:func:`spikeref.align.local_noise`) and the correlation of the two
+        frames' noise (:func:`spikeref.align.estimate_noise_correlation`) are measured on the 2×2
+        luma of the frames *before* denoising, whatever the flow is estimated on: a denoised or
+        smoothed flow image hides its residual error from a high-pass estimate, and the
+        anti-correlation of adjacent windows' counts is a property of the raw spikes.
+        """
+        from spikeref.align import estimate_noise_correlation, local_noise
+
+        r_raw, a_raw = luma(self.planes(level, k)), luma(self.planes(level, j))
+        noise = 0.5 * (local_noise(r_raw) + local_noise(a_raw))
+        return align(ref, alt, step=level, params=self.p.align_params, noise=noise,
+                     correlation=estimate_noise_correlation(r_raw, a_raw))
 
     def _compute(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray | None]:
         """``I_l(k)`` and the flows ``F_{l−1}(k, ·)`` that made it."""
@@ -390,6 +449,8 @@ class _State:
             return self.window_counts(k).astype(np.float32) / np.float32(p.window), None
         neighbours = range(k - hh, k + hh + 1)
         fl = self.flows(level - 1, k)
+        if level == p.L and p.warp == "composed" and p.align and hh:
+            return self._composed(k, fl), fl
         if level == 1:  # Eq. 14: the spike planes of K windows
             counts = np.stack([self.window_counts(j) for j in neighbours])
             with self.timed("warp"):
@@ -397,6 +458,36 @@ class _State:
         frames = np.stack([self.planes(level - 1, j) for j in neighbours])  # Eq. 15
         with self.timed("warp"):
             return warp_average(frames, fl), fl
+
+    def _composed(self, k: int, top: np.ndarray) -> np.ndarray:
+        """``I_L(k)`` with the step flows composed along every path (:mod:`spikeref.compose`).
+
+        ``top`` are the flows ``F_{L−1}(k, ·)``; the lower steps' flows ``F_m(j, ·)`` are those
+        that made ``I_{m+1}(j)``, kept in the rings.
+        """
+        from spikeref.compose import composed_warp, path_table
+
+        p, hh, L = self.p, self.p.half, self.p.L
+        bank, index, hops, targets = [], {}, [], []
+        first = k - L * hh
+        for path in path_table(p.K, L):
+            kk, row = k, []
+            for m, i in zip(range(L - 1, -1, -1), path, strict=True):
+                if i:
+                    key = (m, kk, i)
+                    if key not in index:
+                        flows = top if m == L - 1 else self.levels[m + 1][kk][3]
+                        index[key] = len(bank)
+                        bank.append(flows[i + hh])
+                    row.append(index[key])
+                else:
+                    row.append(-1)
+                kk += i
+            hops.append(row)
+            targets.append(kk - first)
+        counts = np.stack([self.window_counts(j) for j in range(first, k + L * hh + 1)])
+        with self.timed("warp"):
+            return composed_warp(counts, np.stack(bank), np.asarray(hops), np.asarray(targets), p.window)
 
     # output ------------------------------------------------------------
     def finish(self, planes: np.ndarray) -> np.ndarray:
@@ -441,7 +532,7 @@ def _check_align_size(h: int, w: int, p: ReconstructParams) -> None:
 
 def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visible", denoiser=None,
                 align: bool = True, align_params: AlignParams | None = None, frames: slice | None = None,
-                flow_frames: str = "denoised") -> Iterator[np.ndarray]:
+                flow_frames: str | None = None, warp: str | None = None) -> Iterator[np.ndarray]:
     """Reconstruct colour frames from a spike stream: ``R_L = Ψ[D(I_L)]`` (Eq. 13–15, Fig. 3(b)).
 
     Parameters
@@ -459,8 +550,11 @@ def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visibl
     align_params : AlignParams, optional
     frames : slice, optional
         Frame numbers to produce (default: all, :func:`frame_range`).
-    flow_frames : {"denoised", "smoothed"}
-        See :class:`ReconstructParams` (default ``"denoised"``, the paper's).
+    flow_frames : {"denoised", "smoothed"}, optional
+        See :class:`ReconstructParams` (default: its default, ``"smoothed"``; the paper's is
+        ``"denoised"``).
+    warp : {"composed", "progressive"}, optional
+        See :class:`ReconstructParams` (default ``"composed"``; the paper's is ``"progressive"``).
 
     Yields
     ------
@@ -471,8 +565,9 @@ def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visibl
 
     if isinstance(stream, np.ndarray):
         stream = as_stream(stream, cfa="RGGB")
-    params = ReconstructParams(window=W, K=K, L=L, mode=mode, align=align, flow_frames=flow_frames,
-                               align_params=align_params if align_params is not None else AlignParams())
+    kw = {k: v for k, v in (("flow_frames", flow_frames), ("warp", warp), ("align_params", align_params))
+          if v is not None}
+    params = ReconstructParams(window=W, K=K, L=L, mode=mode, align=align, **kw)
     if frames is not None and (not isinstance(frames, slice) or frames.step not in (None, 1)):
         raise ValueError(f"frames must be a slice a:b of frame numbers without a step; got {frames!r}")
     rec = Reconstructor(stream, params, denoiser)

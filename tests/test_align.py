@@ -1,5 +1,7 @@
 """HDR+ tile alignment (§4.2, supplement "Progressive warping"): kernels vs oracle, known motions, edge cases."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -7,7 +9,8 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from spikeref.align import (
-    AlignParams, _fit_offset, _nearest_tiles, align, align_tiles, flow_from_tiles, gaussian_pyramid, luma,
+    AlignParams, _fit_offset, _nearest_tiles, align, align_tiles, estimate_noise, estimate_noise_correlation,
+    flow_from_tiles, gaussian_pyramid, local_noise, luma,
 )
 from spikeref.oracles.align import (
     align_oracle, align_tiles_oracle, flow_from_tiles_oracle, gaussian_pyramid_oracle, nearest_tiles_oracle,
@@ -322,3 +325,179 @@ def test_bad_input_names_the_argument():
         flow_from_tiles(np.zeros((7, 7, 2), complex), 16, (64, 64))
     with pytest.raises(ValueError, match="shape"):
         flow_from_tiles(np.zeros((7, 7, 2)), 16, (8, 64))
+
+
+# ----------------------------------------------------------------------------- noise-aware search (option)
+NOISE_AWARE = AlignParams(prefer_centre=3.0)
+
+
+def anticorrelated_pair(shape, sigma, seed, rho=-0.5, scene=None):
+    """A static scene seen twice with noise of std ``sigma`` correlated ``rho`` between the two frames."""
+    rng = np.random.default_rng(seed)
+    base = np.full(shape, 0.3, np.float32) if scene is None else scene
+    a, b = rng.standard_normal((2,) + shape)
+    n1 = sigma * a
+    n2 = sigma * (rho * a + np.sqrt(1.0 - rho * rho) * b)
+    return (base + n1).astype(np.float32), (base + n2).astype(np.float32)
+
+
+def test_noise_aware_defaults_are_off_and_bit_identical():
+    assert AlignParams().prefer_centre == 0.0
+    rng = np.random.default_rng(11)
+    ref = rng.random((72, 96), dtype=np.float32)
+    alt = np.roll(ref, (2, -3), axis=(0, 1)) + 0.2 * rng.random((72, 96), dtype=np.float32)
+    for step in (0, 1, 2):
+        base = align(ref, alt, step)
+        # the noise arguments are ignored (but validated) while the option is off
+        np.testing.assert_array_equal(align(ref, alt, step, AlignParams(prefer_centre=0), noise=0.01,
+                                            correlation=-0.5), base)
+        np.testing.assert_array_equal(align_tiles(ref, alt, step, noise=np.full((72, 96), 0.01))[0],
+                                      align_tiles(ref, alt, step)[0])
+
+
+def test_noise_aware_search_without_noise_is_the_plain_search_plus_the_zero_candidate():
+    # zero noise: no bias, no threshold — the arg-min, with zero motion as one more candidate at every level
+    img = 0.4 + texture((96, 128), sigma=2.0, seed=6)
+    alt = fourier_shift(img, (3, -2))
+    plain = align_tiles(img, alt, 1)[0]
+    np.testing.assert_array_equal(align_tiles(img, alt, 1, NOISE_AWARE, noise=0.0, correlation=0.0)[0], plain)
+    # where zero is better than anything in the window around a (wrong) centre, it wins
+    ref = np.random.default_rng(11).random((72, 96), dtype=np.float32)
+    other = np.roll(ref, (2, -3), axis=(0, 1)) + 0.2 * np.random.default_rng(12).random((72, 96), dtype=np.float32)
+    zero = align_tiles(ref, other, 0, AlignParams(prefer_centre=3, subpixel=False), noise=0.0, correlation=0.0)[0]
+    differs = np.any(zero != align_tiles(ref, other, 0, AlignParams(subpixel=False))[0], axis=-1)
+    assert np.any(np.all(zero[differs] == 0, axis=-1))
+
+
+def moved(vectors):
+    """Fraction of tiles whose vector is not zero."""
+    return float(np.mean(np.any(vectors != 0, axis=-1)))
+
+
+@pytest.mark.parametrize("rho", [-0.5, 0.0])
+def test_noise_aware_search_keeps_zero_on_noise_of_a_static_scene(rho):
+    # flat and textured static scenes; the noise of adjacent spike windows (anti-correlated) or independent
+    scene = (0.3 + 0.05 * texture((96, 128), sigma=3.0, seed=2)).astype(np.float32)
+    integer = {"subpixel": False}
+    for base in (None, scene):
+        for seed in range(3):
+            ref, alt = anticorrelated_pair((96, 128), 0.02, seed=seed, rho=rho, scene=base)
+            assert moved(align_tiles(ref, alt, 0, AlignParams(**integer))[0]) > 0.5  # the plain arg-min moves
+            # z = 3 keeps almost every tile at zero (an arg-min over 81 offsets of ~50 tiles still lets a
+            # few 3σ events through), z = 6 every one, with the noise given or measured on the images
+            assert moved(align_tiles(ref, alt, 0, AlignParams(prefer_centre=3, **integer), noise=4e-4,
+                                     correlation=rho)[0]) < 0.15
+            for kw in ({"noise": 4e-4, "correlation": rho}, {}):
+                assert moved(align_tiles(ref, alt, 0, AlignParams(prefer_centre=6, **integer), **kw)[0]) == 0
+
+
+def test_anticorrelated_noise_needs_the_zero_offset_bias():
+    # ρ = −½ inflates the distance at zero offset by Σ v: told ρ = 0, even z = 3 leaves zero in every tile
+    ref, alt = anticorrelated_pair((128, 128), 0.02, seed=9, rho=-0.5)
+    params = AlignParams(prefer_centre=3, subpixel=False)
+    assert moved(align_tiles(ref, alt, 0, params, noise=4e-4, correlation=0.0)[0]) > 0.9
+    assert moved(align_tiles(ref, alt, 0, params, noise=4e-4, correlation=-0.5)[0]) < 0.15
+    assert moved(align_tiles(ref, alt, 0, params)[0]) < 0.15  # ρ and v measured on the images
+
+
+@pytest.mark.parametrize("shift", [(3, -2), (-9, 14), (0.5, -0.25)])
+def test_noise_aware_search_still_finds_motion(shift):
+    rng = np.random.default_rng(4)
+    img = 0.4 + texture((96, 128), sigma=2.0, seed=6)  # texture std ≈ 0.15, noise 0.02
+    ref = (img + 0.02 * rng.standard_normal(img.shape)).astype(np.float32)
+    alt = (fourier_shift(img, shift) + 0.02 * rng.standard_normal(img.shape)).astype(np.float32)
+    plain, tile = align_tiles(ref, alt, 1)
+    oy = np.arange(plain.shape[0])[:, None] * (tile // 2) + shift[0]
+    ox = np.arange(plain.shape[1])[None, :] * (tile // 2) + shift[1]
+    inside = (oy >= 1) & (oy + tile <= 95) & (ox >= 1) & (ox + tile <= 127)  # the shifted tile is in the image
+    for kw in ({"noise": 4e-4, "correlation": 0.0}, {}):
+        vectors = align_tiles(ref, alt, 1, NOISE_AWARE, **kw)[0]
+        if shift[0] == int(shift[0]):  # an integer match is far beyond what noise explains: the same vectors
+            np.testing.assert_array_equal(vectors[inside], plain[inside])
+        np.testing.assert_allclose(vectors[inside][:, 0], shift[0], atol=0.3)
+        np.testing.assert_allclose(vectors[inside][:, 1], shift[1], atol=0.3)
+
+
+def test_noise_estimators():
+    rng = np.random.default_rng(0)
+    y, x = np.mgrid[0:200, 0:300]
+    plane = 0.2 + 0.001 * y + 0.0005 * x  # the Laplacian ignores a plane
+    noisy = plane + 0.05 * rng.standard_normal(plane.shape)
+    assert estimate_noise(noisy) == pytest.approx(0.05 ** 2, rel=0.05)
+    assert estimate_noise(plane) == pytest.approx(0.0, abs=1e-12)
+    half = plane.copy()
+    half[:, 150:] += 0.1 * rng.standard_normal((200, 150))
+    m = local_noise(half)
+    assert m.shape == half.shape and m.dtype == np.float64
+    assert m[100, 40] == pytest.approx(0.0, abs=1e-9) and m[100, 260] == pytest.approx(0.01, rel=0.15)
+    for rho in (-0.5, 0.0, 0.6):
+        a, b = anticorrelated_pair((200, 300), 0.05, seed=3, rho=rho)
+        assert estimate_noise_correlation(a, b) == pytest.approx(rho, abs=0.05)
+    flat = np.full((20, 20), 0.5)
+    assert estimate_noise_correlation(flat, flat) == 0.0  # no noise at all
+    assert estimate_noise_correlation(noisy, noisy) == pytest.approx(1.0)
+
+
+def test_level_noise_factors_match_white_noise_through_the_pyramid():
+    from spikeref.align import _level_noise_factors
+
+    factors = _level_noise_factors(4)
+    assert factors[0] == (1.0, 1.0)
+    assert factors[1][0] == pytest.approx((70 / 256) ** 2)  # Σ b² / 16² per axis, squared for 2-D
+    pyr = gaussian_pyramid(np.random.default_rng(1).standard_normal((512, 512)).astype(np.float32), 4)
+    for level, (f, s) in enumerate(factors):
+        inner = pyr[level][8 >> level or 1:-(8 >> level or 1), 8 >> level or 1:-(8 >> level or 1)]
+        assert inner.var() == pytest.approx(f, rel=0.1)
+        assert s >= 1.0
+
+
+def test_noise_aware_validation():
+    ok = texture((64, 64))
+    for bad in (-1.0, np.nan, np.inf, True, "3"):
+        with pytest.raises(ValueError, match="prefer_centre"):
+            AlignParams(prefer_centre=bad)
+    assert AlignParams(prefer_centre=2).prefer_centre == 2.0 and isinstance(AlignParams(prefer_centre=2).prefer_centre,
+                                                                            float)
+    for params in (AlignParams(), NOISE_AWARE):  # validated whether or not the option is on
+        with pytest.raises(ValueError, match="noise must be a scalar or an array of the image's shape"):
+            align(ok, ok, params=params, noise=np.ones((3, 3)))
+        with pytest.raises(ValueError, match="noise must be finite and ≥ 0"):
+            align(ok, ok, params=params, noise=-1.0)
+        with pytest.raises(ValueError, match="noise must be finite"):
+            align(ok, ok, params=params, noise=np.nan)
+        with pytest.raises(TypeError, match="noise must be a real number"):
+            align(ok, ok, params=params, noise=True)
+        with pytest.raises(TypeError, match="noise must be a real number"):
+            align(ok, ok, params=params, noise="0.1")
+        for bad in (1.5, -2, np.nan, True, "0"):
+            with pytest.raises(ValueError, match="correlation"):
+                align_tiles(ok, ok, params=params, correlation=bad)
+    with pytest.raises(ValueError, match="at least 3×3"):
+        estimate_noise(np.zeros((2, 9)))
+    with pytest.raises(ValueError, match="box"):
+        local_noise(ok, box=4)
+    with pytest.raises(ValueError, match="same shape"):
+        estimate_noise_correlation(ok, ok[:32])
+    with pytest.raises(TypeError, match="image"):
+        estimate_noise(np.zeros((8, 8), int))
+
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "spikingsim_real_spike.npz"
+
+
+@pytest.mark.skipif(not REAL.is_file(), reason="the real recording ../shared/data/real/ is not here")
+def test_noise_aware_pipeline_on_the_real_near_static_recording():
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+    from spikeref.stream import SpikeStream
+
+    # SpikingSIM outdoor scene (mono, near-static): the default moves 18 % of the pixels by more than a
+    # plane pixel (spurious matches on noisy flat regions, and zero penalised by the anti-correlated
+    # noise of adjacent windows); the noise-aware search, told the noise of I_l, 4 %
+    with np.load(REAL) as data:
+        stream = SpikeStream.from_array(np.ascontiguousarray(data["arr_0"][:, :, :70].transpose(2, 0, 1)))
+    share = {}
+    for z in (0.0, 3.0):
+        params = ReconstructParams.paper(align_params=AlignParams(prefer_centre=z))  # flows on D(I_l) frames
+        (frame,) = Reconstructor(stream, params, lambda p: p).frames(3, 4, keep_steps=True)
+        share[z] = np.mean(np.concatenate([np.hypot(*f).ravel() for f in frame.flows.values()]) > 1.0)
+    assert share[0.0] > 0.1 and share[3.0] < 0.06

@@ -16,7 +16,9 @@ rung                what it is
 ``tfp_support``     TFP over the whole support ``((K−1)L+1)·W`` planes, equal weights, no motion
 ``no_align``        the method with zero flow (plain accumulation with Eq. 14–15's weights, then D)
 ``no_denoiser``     the method with the identity for ``D`` (flows estimated on the raw frames)
-``ours``            the method (Eq. 13–15, Fig. 3(b))
+``paper``           the paper's procedure exactly: Fig. 3(b) with Eq. 14–15 step by step, the plain
+                    alignment, the network's ``D(I)`` without guard or shrinkage
+``ours``            the method as this package runs it by default (:class:`~spikeref.pipeline.ReconstructParams`)
 ``true_flow``       the support warped by the scene's exact motion: every window's Bayer planes
                     resampled once (cubic) onto the reference window, weighted by Eq. 14–15's
                     binomial weights, no denoiser — what perfect alignment would give
@@ -34,7 +36,7 @@ with the true flow between the centres of windows ``k`` and ``k+i`` at the 2×2 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -42,11 +44,12 @@ __all__ = ["RUNGS", "RUNG_LABELS", "LadderSetting", "binomial_weights", "true_fl
            "ladder_markdown", "plot_ladder"]
 
 #: The rungs, bottom to top.
-RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "ours", "true_flow",
+RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
          "true_flow_d", "limit")
 RUNG_LABELS = {
     "tfp": "TFP(W)", "bm3d": "BM3D on W", "nlm": "NLM on W", "net": "D on W", "tfp_support": "TFP(support)",
-    "no_align": "no alignment", "no_denoiser": "no denoiser", "ours": "ours", "true_flow": "true flow",
+    "no_align": "no alignment", "no_denoiser": "no denoiser", "paper": "paper's Fig. 3(b)", "ours": "ours",
+    "true_flow": "true flow",
     "true_flow_d": "true flow + D", "limit": "limit (Ψ of truth)",
 }
 #: Border left out of the end-point error, full-resolution pixels.
@@ -143,7 +146,8 @@ def _epe(est: np.ndarray, true: np.ndarray, visible: np.ndarray) -> float:
     return float(err[vis].mean()) if vis.any() else float("nan")
 
 
-def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, peers: dict, rungs) -> tuple:
+def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, peers: dict, rungs,
+                      overrides: dict) -> tuple:
     """Frames of every rung at the centres, seconds per frame of the single-window ones, and EPE per step."""
     from spikeref.accumulate import window_counts
     from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
@@ -213,7 +217,16 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, 
                 flows.append(frame.flows)
         return got, flows
 
-    base = ReconstructParams(window=w, K=K, L=L)
+    base = ReconstructParams(window=w, K=K, L=L, **overrides)
+    if "paper" in rungs:
+        from spikeref.denoise.denoiser import Denoiser
+
+        paper_den = Denoiser(denoiser.unet, guard="off", shrink=False) if isinstance(denoiser, Denoiser) else denoiser
+        from spikeref.align import AlignParams
+
+        paper = ReconstructParams(window=w, K=K, L=L, warp="progressive", flow_frames="denoised",
+                                  align_params=AlignParams(prefer_centre=0.0))
+        out["paper"] = run(paper, paper_den, False)[0]
     if "ours" in rungs:
         frames, flows = run(base, denoiser, True)
         out["ours"] = frames
@@ -224,14 +237,15 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, 
                 if true is not None:
                     epe.setdefault(level, []).append(_epe(f, true, vis))
     if "no_align" in rungs:
-        out["no_align"] = run(ReconstructParams(window=w, K=K, L=L, align=False), denoiser, False)[0]
+        out["no_align"] = run(replace(base, align=False), denoiser, False)[0]
     if "no_denoiser" in rungs:
         out["no_denoiser"] = run(base, lambda p: p, False)[0]
     return out, secs, {lv: float(np.mean(v)) for lv, v in sorted(epe.items())}
 
 
 def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None, frames: int = 4,
-               peers=("bm3d", "nlm"), rungs=RUNGS, progress: bool = True, log=None) -> dict:
+               peers=("bm3d", "nlm"), rungs=RUNGS, progress: bool = True, log=None,
+               params: dict | None = None) -> dict:
     """Run the ladder on ``scenes`` (:class:`~spikeref.bench.runner.BenchScene`) for each setting.
 
     Parameters
@@ -249,6 +263,10 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
         with a note in ``result["notes"]``.
     rungs : sequence of str
         Which rungs to run (default all, :data:`RUNGS`).
+    params : dict, optional
+        Fields of :class:`~spikeref.pipeline.ReconstructParams` that replace the defaults in the
+        method's rungs (``ours``, ``no_align``, ``no_denoiser``) — for studies; the ``paper``
+        rung always runs the paper's procedure.
 
     Returns
     -------
@@ -292,7 +310,7 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
             refs = [sc.reference(t) for t in centres]
             for setting in settings:
                 bar.set_postfix_str(f"{sc.key}: {setting.name}")
-                out, secs, epe = _frames_for_scene(sc, setting, centres, denoiser, peer_fns, rungs)
+                out, secs, epe = _frames_for_scene(sc, setting, centres, denoiser, peer_fns, rungs, dict(params or {}))
                 for r in rungs:
                     imgs = out[r]
                     if not imgs or any(i is None for i in imgs):

@@ -40,7 +40,7 @@ def _cubic_clamped(image, y, x):
 
 
 def composed_warp_oracle(counts, bank, hops, targets, window):
-    """``I_L(x) = Σ_π v_π S_{t_π}(x_π) / (W Σ_π v_π)`` with ``x_π`` moved hop by hop along the bank's flows."""
+    """``I_L(x) = Σ_π v_π S_{t_π}(x_π) / (W Σ_π v_π)``, clipped to [0, 1], ``x_π`` moved hop by hop along the flows."""
     counts = np.asarray(counts, dtype=np.float64)
     bank = np.asarray(bank, dtype=np.float64)
     n, nc, h, w = counts.shape
@@ -62,5 +62,5 @@ def composed_warp_oracle(counts, bank, hops, targets, window):
                     total[c] += _cubic_clamped(counts[target, c], sy, sx)
                 kept += 1
             if kept:
-                out[:, y, x] = total / kept / window
+                out[:, y, x] = np.clip(total / kept / window, 0.0, 1.0)  # a rate lies in [0, 1]
     return out

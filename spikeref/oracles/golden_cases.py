@@ -297,7 +297,7 @@ def _pipeline_align_params():
     return AlignParams(**_PIPELINE["align"])
 
 
-def _pipeline_fast(i, flow_frames="denoised"):
+def _pipeline_fast(i, flow_frames="denoised", warp="progressive", guard="off"):
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.denoise.unet import UNet
     from spikeref.pipeline import ReconstructParams, Reconstructor
@@ -305,9 +305,9 @@ def _pipeline_fast(i, flow_frames="denoised"):
 
     c = _PIPELINE
     params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
-                               flow_frames=flow_frames)
+                               flow_frames=flow_frames, warp=warp)
     net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
-    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net, guard="off"))
+    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net, guard=guard))
     frames = list(rec.frames(c["frames"][0], c["frames"][-1] + 1, keep_steps=True))
     offsets = range(-(c["K"] // 2), c["K"] // 2 + 1)
     flows = [[[f.flows[(level, o)] if o else np.zeros_like(f.flows[(level, 1)]) for o in offsets]
@@ -338,6 +338,20 @@ def _pipeline_smoothed_oracle(i):
     out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], _unet_params(i),
                              _pipeline_align_params(), c["frames"], flow_frames="smoothed", flow_sigma=1.0,
                              keep_steps=False)
+    return {k: v.astype(np.float32) for k, v in out.items()}
+
+
+def _pipeline_composed_fast(i):
+    out = _pipeline_fast(i, warp="composed", guard="sure")
+    return {"rgb": out["rgb"], "flows": out["flows"]}
+
+
+def _pipeline_composed_oracle(i):
+    from spikeref.oracles.pipeline import reconstruct_oracle
+
+    c = _PIPELINE
+    out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], _unet_params(i),
+                             _pipeline_align_params(), c["frames"], keep_steps=False, warp="composed", guard="sure")
     return {k: v.astype(np.float32) for k, v in out.items()}
 
 
@@ -597,6 +611,26 @@ CASES: list[GoldenCase] = [
         rtol=1e-4, atol=1e-5,
         params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible", "shrink": True,
                 "input_domain": "count", "flow_frames": "smoothed", "flow_sigma": 1.0,
+                "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
+        jit_disabled_check=False,
+    ),
+    GoldenCase(
+        "pipeline_frames_composed_guard",
+        "Eq. 13–15 with warp=\"composed\" and the SURE guard (not in the paper; the package's defaults)",
+        "spikeref.pipeline.Reconstructor (ReconstructParams(warp=\"composed\"), Denoiser(guard=\"sure\"))",
+        "spikeref.oracles.pipeline.reconstruct_oracle (warp=\"composed\", guard=\"sure\")",
+        "The inputs and settings of pipeline_frames, with I_L made by composing the step flows along the 27 "
+        "paths and resampling each spike window once (Catmull–Rom; spikeref.compose), and the output's D "
+        "guarded by Stein's unbiased risk estimate (spikeref.denoise.guard: σ per plane from the smallest 75 % "
+        "of the 3×3 difference-of-Laplacians responses, the quantisation floor, a ±1 probe from "
+        "default_rng(0), ε = 0.05 × the plane's root mean variance, a 17×17 box); frames of steps < L and "
+        "their flows as in pipeline_frames. Outputs: R_L (rgb) and the flows of frames 3 and 4. The oracle "
+        "computes in float64; its outputs are stored as float32.",
+        _inputs_pipeline, _pipeline_composed_oracle, _pipeline_composed_fast,
+        rtol=1e-4, atol=1e-5,
+        params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible",
+                "input_domain": "count", "warp": "composed", "interpolant": "Catmull-Rom (Keys a = -1/2)",
+                "guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05,
                 "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
         jit_disabled_check=False,
     ),

@@ -24,6 +24,18 @@ Definitions (DESIGN §4; ``h = (K − 1)/2``; window ``j`` = planes ``[jW, (j+1)
   ``F_0(j, j+i)``.
 * ``I_l(j)``, ``l ≥ 2``: Eq. 15 over ``I_{l−1}(j+i)`` warped by ``F_{l−1}(j, j+i)``.
 * Output: ``R_l(k) = Ψ[mosaic(D_l(k))]`` for every step ``l`` (``R_L`` is the frame).
+
+Options beyond the paper (defaults of :class:`spikeref.pipeline.ReconstructParams` and
+:class:`spikeref.denoise.denoiser.Denoiser`, each off here unless asked for):
+
+* ``warp="composed"``: ``I_L(k)`` by :func:`composed_warp_oracle` over the ``K^L`` paths
+  ``(i_L, …, i_1)`` — hop ``m`` (from step ``L−1`` down to 0) moves by ``F_m(j, j+i)`` of the
+  frame ``j`` reached — from the spike counts of the windows the paths end in.
+* ``guard="sure"``: the output's ``D_L`` is ``I + α (f(I) − I)`` with the SURE ``α`` of
+  :func:`sure_alpha_oracle`: σ of each plane by :func:`noise_sigma_oracle` (keep 0.75), at least
+  :func:`quantisation_variance_oracle` of ``f(I)`` per pixel, the probe ``b`` the ±1 array of
+  NumPy's ``default_rng(0).integers(0, 2, shape, int8) · 2 − 1``, ``ε = 0.05`` × the root mean
+  variance of the plane, radius 8; no shrinkage.  Frames that are only aligned are unguarded.
 """
 
 from __future__ import annotations
@@ -33,6 +45,8 @@ import numpy as np
 from spikeref.oracles.accumulate import accumulate_oracle
 from spikeref.oracles.align import align_oracle
 from spikeref.oracles.bayer import bayer_planes_oracle, demosaic_bilinear_oracle
+from spikeref.oracles.compose import composed_warp_oracle
+from spikeref.oracles.guard import noise_sigma_oracle, quantisation_variance_oracle, sure_alpha_oracle
 from spikeref.oracles.shrinkage import shrink_residual_oracle
 from spikeref.oracles.unet import unet_forward_oracle
 from spikeref.oracles.warp import eq14_oracle, eq15_oracle
@@ -96,7 +110,8 @@ def _mosaic(planes):
 
 
 def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, frames, depth=5, slope=0.1,
-                       flow_frames="denoised", flow_sigma=1.0, keep_steps=True):
+                       flow_frames="denoised", flow_sigma=1.0, keep_steps=True, warp="progressive",
+                       guard="off"):
     """Frames ``R_L(k)``, every step ``R_l(k)`` and the flows ``F_l(k, k+i)`` for ``k`` in ``frames``.
 
     Parameters
@@ -115,6 +130,10 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
     keep_steps : bool
         Also return every ``R_l`` (``steps``); without it ``D`` runs only for the outputs when
         ``flow_frames="smoothed"``.
+    warp : {"progressive", "composed"}
+        How ``I_L`` is made (module docstring).
+    guard : {"off", "sure"}
+        The guard on the output's ``D_L`` (module docstring); ``"off"`` applies the shrinkage.
 
     Returns
     -------
@@ -135,21 +154,69 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
                 planes_memo[key] = bayer_planes_oracle(accumulate_oracle(spikes, window, start=j * window)[0])
             else:
                 flows = np.stack([F_l(level - 1, j, j + i) for i in range(-h, h + 1)])
-                if level == 1:
+                if level == L and warp == "composed" and h:
+                    planes_memo[key] = composed_I_L(j)
+                elif level == 1:
                     sp = np.stack([p for i in range(-h, h + 1) for p in window_planes(j + i)])
                     planes_memo[key] = eq14_oracle(sp, flows, window)
                 else:
                     planes_memo[key] = eq15_oracle(np.stack([I_l(level - 1, j + i) for i in range(-h, h + 1)]), flows)
         return planes_memo[key]
 
+    def composed_I_L(j):
+        bank, index, hops, targets = [], {}, [], []
+        paths = [[]]
+        for _ in range(L):
+            paths = [p + [i] for p in paths for i in range(-h, h + 1)]
+        for path in paths:
+            jj, row = j, []
+            for m, i in zip(range(L - 1, -1, -1), path, strict=True):
+                if i:
+                    if (m, jj, i) not in index:
+                        index[(m, jj, i)] = len(bank)
+                        bank.append(F_l(m, jj, jj + i))
+                    row.append(index[(m, jj, i)])
+                else:
+                    row.append(-1)
+                jj += i
+            hops.append(row)
+            targets.append(jj - (j - L * h))
+        counts = np.stack([bayer_planes_oracle(accumulate_oracle(spikes, window, start=t * window)[0]) * window
+                           for t in range(j - L * h, j + L * h + 1)])
+        return composed_warp_oracle(counts, np.stack(bank), hops, targets, window)
+
+    def network(planes, exposure):
+        counts = (planes * exposure).astype(np.float32)
+        return unet_forward_oracle(unet_params, counts, depth, slope).astype(np.float64) / exposure
+
+    def sure_guard(noisy, exposure):
+        noisy = noisy.astype(np.float32).astype(np.float64)
+        clean = network(noisy, exposure).astype(np.float32).astype(np.float64)
+        var = np.zeros_like(noisy)
+        for c in range(noisy.shape[0]):
+            s2 = noise_sigma_oracle(noisy[c]) ** 2
+            for y in range(noisy.shape[1]):
+                for x in range(noisy.shape[2]):
+                    var[c, y, x] = max(s2, quantisation_variance_oracle(clean[c, y, x], exposure))
+        b = (np.random.default_rng(0).integers(0, 2, size=noisy.shape, dtype=np.int8) * 2 - 1).astype(np.float64)
+        eps = [0.05 * np.sqrt(var[c].mean()) for c in range(noisy.shape[0])]
+        probed_in = (noisy + np.array(eps)[:, None, None] * b).astype(np.float32)
+        probed = network(probed_in, exposure).astype(np.float32).astype(np.float64)
+        out = np.zeros_like(noisy)
+        for c in range(noisy.shape[0]):
+            alpha = sure_alpha_oracle(noisy[c], clean[c], probed[c], b[c], eps[c], np.sqrt(var[c]), 8)
+            out[c] = noisy[c] + alpha * (clean[c] - noisy[c])
+        return out
+
     def D_l(level, j):
         key = (level, j)
         if key not in denoised_memo:
             exposure = exposure_oracle(window, K, level)
             noisy = I_l(level, j)
-            counts = (noisy * exposure).astype(np.float32)
-            clean = unet_forward_oracle(unet_params, counts, depth, slope).astype(np.float64) / exposure
-            denoised_memo[key] = shrink_residual_oracle(noisy, clean, exposure)
+            if guard == "sure" and level == L:
+                denoised_memo[key] = sure_guard(noisy, exposure)
+            else:
+                denoised_memo[key] = shrink_residual_oracle(noisy, network(noisy, exposure), exposure)
         return denoised_memo[key]
 
     def luma(planes):
