@@ -27,15 +27,28 @@ Interpretations (DESIGN §4)
   recording can be cut into chunks.
 * The flow of step ``l`` uses the tile size ``AlignParams.tile_for_step(l)``: large tiles for
   the noisy step-0 frames, smaller ones later (supplement §8).
-* ``flow_frames="smoothed"`` (not in the paper; a speed option) aligns a Gaussian-smoothed
-  2×2 luma of ``I_l`` (σ = :data:`FLOW_SMOOTHING_SIGMA` plane pixels) instead of the luma of
-  ``D(I_l)``: the U-Net then runs once per output frame (for ``R_L``) instead of ``L + 1``
-  times.  The default, ``"denoised"``, is Fig. 3(b).
-* ``AlignParams.prefer_centre > 0`` (an option, not in the paper; off by default) turns on the
-  noise-aware search of :mod:`spikeref.align`; the pipeline tells it the noise of ``I_l``,
-  measured on the 2×2 luma of the frames before denoising (variance map and the correlation of
-  the two frames' noise — adjacent windows' counts are anti-correlated), whatever the flow is
-  estimated on (``_State.noise_aware_flow``).
+
+Beyond the paper (the defaults of :class:`ReconstructParams`, each measured on the stage ladder,
+``docs/results.md``; :meth:`ReconstructParams.paper` turns all of them off):
+
+* ``flow_frames="smoothed"`` aligns a Gaussian-smoothed 2×2 luma of ``I_l`` (σ =
+  :data:`FLOW_SMOOTHING_SIGMA` plane pixels) instead of the luma of ``D(I_l)``: the U-Net then
+  runs once per output frame (for ``R_L``) instead of ``L + 1`` times.  ``"denoised"`` is
+  Fig. 3(b).
+* ``warp="composed"`` makes ``I_L`` from the spike windows with the step flows composed along
+  every path (:mod:`spikeref.compose`): one cubic resample per window instead of ``L``
+  bilinear ones.  ``"progressive"`` is Eq. 14–15.
+* ``AlignParams.prefer_centre > 0`` (3 by default here; ``AlignParams()`` alone keeps the plain
+  HDR+ search) turns on the noise-aware search of :mod:`spikeref.align`; the pipeline tells it
+  the noise of ``I_l``, measured on the 2×2 luma of the frames before denoising (variance map
+  and the correlation of the two frames' noise — adjacent windows' counts are
+  anti-correlated), whatever the flow is estimated on (``_State.noise_aware_flow``).
+* A :class:`~spikeref.denoise.denoiser.Denoiser` with its guard on (the default,
+  :mod:`spikeref.denoise.guard`) is guarded for the output ``D(I_L)`` only; frames that are
+  only aligned are denoised without it.
+
+More interpretations:
+
 * ``K = 1`` or ``L = 0`` reduces to the denoised TFP ``Ψ[D(I_0)]`` (no flow is computed);
   ``align=False`` uses zero flow (plain accumulation over the support: TFP with a
   ``((K−1)L+1)·W`` window, then ``D`` and Ψ) — for the accuracy-vs-time study.

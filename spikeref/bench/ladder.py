@@ -397,22 +397,26 @@ def plot_ladder(result: dict, path, setting: str | None = None) -> bool:
     setting = setting or result["settings"][0]
     rungs = result["rungs"]
     scenes, grid = _table(result, setting, "psnr")
-    fig, ax = plt.subplots(figsize=(10, 5.2))
+    fig, ax = plt.subplots(figsize=(12, 5.2))
     x = np.arange(len(rungs))
-    full = []
-    for s in scenes:
-        y = np.array([grid.get((s, r), np.nan) for r in rungs], dtype=float)
-        ax.plot(x, y, marker="o", lw=1, alpha=0.6, label=s)
-        if np.all(np.isfinite(y)):
-            full.append(y)
-    if full:
-        ax.plot(x, np.mean(full, axis=0), marker="s", lw=3, color="k", label=f"mean of {len(full)}")
+    lines = {s: np.array([grid.get((s, r), np.nan) for r in rungs], dtype=float) for s in scenes}
+    full = [y for y in lines.values() if np.all(np.isfinite(y))]
+    mean = np.mean(full, axis=0) if full else None
+    finite = np.concatenate([y[np.isfinite(y)] for y in lines.values()] or [np.zeros(1)])
+    # a scene far below the others (low light: ~10 dB) would squash the rest: keep 8 dB under the mean
+    bottom = max(float(finite.min()), float(np.nanmin(mean)) - 8.0) - 0.5 if mean is not None else None
+    for s, y in lines.items():
+        off = bottom is not None and np.nanmin(y) < bottom
+        ax.plot(x, y, marker="o", lw=1, alpha=0.6, label=s + (" (partly below the axis)" if off else ""))
+    if mean is not None:
+        ax.plot(x, mean, marker="s", lw=3, color="k", label=f"mean of {len(full)}")
+        ax.set_ylim(bottom, float(finite.max()) + 1.0)
     ax.set_xticks(x)
     ax.set_xticklabels([RUNG_LABELS[r] for r in rungs], rotation=35, ha="right")
     ax.set_ylabel("PSNR (dB), linear RGB against the exact ground truth")
     ax.set_title(f"Stage ladder, {setting}: what each stage buys, up to the limit")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncol=2)
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.01, 0.5))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -53,6 +53,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from spikeref.denoise.blindspot import _check_image
+
 __all__ = ["GUARDS", "DEFAULT_RADIUS", "PROBE_SEED", "NOISE_KEEP", "noise_sigma", "quantisation_variance",
            "rademacher_probe", "probe_step", "sure_alpha",
            "sure_blend"]
@@ -70,14 +72,7 @@ PROBE_FRACTION = 0.05
 
 
 def _planes(a, name: str) -> np.ndarray:
-    arr = np.asarray(a)
-    if arr.ndim < 2:
-        raise ValueError(f"{name} must have shape (..., h, w); got {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.floating):
-        raise TypeError(f"{name} must be floating point; got {arr.dtype}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite")
-    return arr
+    return _check_image(a, name)  # (..., h, w), floating point, finite
 
 
 def _truncated_halfnormal_mean(q: float) -> float:

@@ -144,14 +144,23 @@ def _even_size(name: str, value) -> int:
     return int(value)
 
 
-def _rgb(name: str, value) -> tuple:
+def _numbers(name: str, value, count: int, what: str, minimum=None) -> tuple:
+    """``count`` finite numbers from a sequence, else ``ValueError`` naming ``content.<name>`` and ``what``."""
     try:
         values = tuple(value)
     except TypeError:
         values = ()
-    if len(values) != 3:
-        raise ValueError(f"content.{name} must be 3 values (R, G, B); got {value!r}")
-    return tuple(_number(name, v, minimum=0) for v in values)
+    if len(values) != count:
+        raise ValueError(f"content.{name} must be {what}; got {value!r}")
+    return tuple(_number(name, v, minimum=minimum) for v in values)
+
+
+def _rgb(name: str, value) -> tuple:
+    return _numbers(name, value, 3, "3 values (R, G, B)", minimum=0)
+
+
+def _xy(name: str, value) -> tuple:
+    return _numbers(name, value, 2, "(x, y) in pixels")
 
 
 def _box(h: int, w: int, cy: float, cx: float, half_h: float, half_w: float) -> tuple:
@@ -857,13 +866,7 @@ class ImageMotion(SceneContent):
             origin = ((iw - self.width) / 2.0, (ih - self.height) / 2.0)
         else:
             origin = self.origin
-        try:
-            origin = tuple(_number("origin", v) for v in origin)
-        except TypeError:
-            origin = ()
-        if len(origin) != 2:
-            raise ValueError(f"content.origin must be (x, y) in image pixels; got {self.origin!r}")
-        object.__setattr__(self, "origin", origin)
+        object.__setattr__(self, "origin", _numbers("origin", origin, 2, "(x, y) in image pixels"))
         motion = Motion.from_table(self.motion, "content.motion")
         object.__setattr__(self, "motion", motion.with_center(view_centre))
         if self.fg_image is None:
@@ -875,9 +878,9 @@ class ImageMotion(SceneContent):
         object.__setattr__(self, "fg_image", fg)
         object.__setattr__(self, "fg_radius", _number("foreground.radius", self.fg_radius, minimum=0,
                                                          open_min=True))
-        centre = view_centre if self.fg_center is None else _rgb_pair("foreground.center", self.fg_center)
+        centre = view_centre if self.fg_center is None else _xy("foreground.center", self.fg_center)
         source_centre = ((fg.shape[1] - 1) / 2.0, (fg.shape[0] - 1) / 2.0) if self.fg_source_center is None \
-            else _rgb_pair("foreground.source_center", self.fg_source_center)
+            else _xy("foreground.source_center", self.fg_source_center)
         object.__setattr__(self, "fg_center", centre)
         object.__setattr__(self, "fg_source_center", source_centre)
         fg_motion = Motion.from_table(self.fg_motion, "content.foreground.motion")
@@ -952,14 +955,6 @@ class ImageMotion(SceneContent):
         return flow, visible
 
 
-def _rgb_pair(name: str, value) -> tuple:
-    try:
-        values = tuple(value)
-    except TypeError:
-        values = ()
-    if len(values) != 2:
-        raise ValueError(f"content.{name} must be (x, y) in pixels; got {value!r}")
-    return tuple(_number(name, v) for v in values)
 
 
 #: Content classes by their ``type`` in scene files.
