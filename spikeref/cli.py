@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -148,7 +149,8 @@ def cmd_reconstruct(args) -> int:
     if args.resume and exr_dir is None:
         raise CliError("--resume needs --exr-dir (the frames already written are found there)")
     make = ReconstructParams.paper if args.paper else ReconstructParams
-    chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp)) if v is not None}
+    chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp),
+                                ("demosaic", args.demosaic)) if v is not None}
     params = make(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align, **chosen)
     if args.workers is not None or args.scheduler is not None:
         if args.no_shrink or args.guard is not None or args.paper:
@@ -558,6 +560,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--warp", choices=["composed", "progressive"], default=None,
                    help="how the output is warped: composed (default; the step flows composed, each spike window "
                         "resampled once with a cubic, not in the paper) or progressive (Eq. 14-15 step by step)")
+    p.add_argument("--demosaic", choices=["bilinear", "mhc"], default=None,
+                   help="the output frame's demosaic: bilinear (default; the paper's Ψ, Eq. 13) or mhc "
+                        "(Malvar-He-Cutler 5x5 filters: sharper on photographs, not in the paper; docs/results.md)")
     p.add_argument("--weights", type=Path, default=None,
                    help="denoiser weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little "
                         "sharper)")
@@ -714,11 +719,30 @@ def main(argv=None) -> int:
         return 2
     from spikeref.distributed import ChunkError  # no Dask import: the module loads it when a cluster is made
 
-    try:
-        return args.func(args)
-    except (CliError, ChunkError, ValueError, TypeError, FileNotFoundError, OSError, ImportError) as exc:
-        print(f"spikeref {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    with warnings.catch_warnings():
+        warnings.showwarning = _one_line_notes(args.command, warnings.showwarning)
+        try:
+            return args.func(args)
+        except (CliError, ChunkError, ValueError, TypeError, FileNotFoundError, OSError, ImportError) as exc:
+            print(f"spikeref {args.command}: error: {exc}", file=sys.stderr)
+            return 2
+
+
+def _one_line_notes(command: str, show):
+    """A ``warnings.showwarning`` that prints spikeref's own ``UserWarning`` as ``spikeref CMD: note: …``.
+
+    Such a warning is a note to the user (say, that small frames were aligned with a smaller
+    pyramid), not a fault to trace; any other warning goes to ``show``.
+    """
+    package = Path(__file__).resolve().parent
+
+    def show_note(message, category, filename, lineno, file=None, line=None):
+        if issubclass(category, UserWarning) and Path(filename).resolve().is_relative_to(package):
+            print(f"spikeref {command}: note: {message}", file=sys.stderr if file is None else file)
+        else:
+            show(message, category, filename, lineno, file, line)
+
+    return show_note
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -137,6 +137,9 @@ class ReconstructParams:
         paper's Fig. 3(b): ``L + 1`` denoiser passes per output frame) or a Gaussian-smoothed
         luma of ``I_l`` (default; :func:`flow_luma`; one denoiser pass per output frame, not in
         the paper).
+    demosaic : {"bilinear", "mhc"}
+        The output frame's demosaic: Ψ (default, Eq. 13) or Malvar–He–Cutler
+        (:mod:`spikeref.demosaic`; sharper, not in the paper).  The flows always use the 2×2 luma.
     """
 
     window: int = 10
@@ -147,6 +150,7 @@ class ReconstructParams:
     align_params: AlignParams = field(default_factory=lambda: AlignParams(prefer_centre=DEFAULT_PREFER_CENTRE))
     flow_frames: str = "smoothed"
     warp: str = "composed"
+    demosaic: str = "bilinear"
 
     def __post_init__(self):
         from spikeref.denoise.blindspot import MODES
@@ -165,6 +169,10 @@ class ReconstructParams:
             raise TypeError(f"align_params must be an AlignParams; got {type(self.align_params).__name__}")
         if self.warp not in WARPS:
             raise ValueError(f"warp must be one of {', '.join(WARPS)}; got {self.warp!r}")
+        from spikeref.demosaic import DEMOSAICS
+
+        if self.demosaic not in DEMOSAICS:
+            raise ValueError(f"demosaic must be one of {', '.join(DEMOSAICS)}; got {self.demosaic!r}")
 
     @property
     def half(self) -> int:
@@ -297,8 +305,8 @@ class Reconstructor:
         if len(stream) < need:
             raise ValueError(f"the stream has {len(stream)} planes; one frame with W={p.window}, K={p.K}, L={p.L} "
                              f"needs ((K−1)L+1)·W = {need} planes")
-        if p.align and p.K > 1 and p.L > 0:
-            _check_align_size(stream.height // 2, stream.width // 2, p)
+        if p.align and p.K > 1 and p.L > 0:  # small frames: a smaller pyramid, or zero flow (with a note)
+            p = self.params = _fit_align_size(stream.height // 2, stream.width // 2, p)
         self._denoise = self._make_denoiser(denoiser)
         #: seconds spent per stage since construction (accumulate, denoise, align, warp, demosaic)
         self.timings: dict[str, float] = dict.fromkeys(("accumulate", "denoise", "align", "warp", "demosaic"), 0.0)
@@ -506,7 +514,13 @@ class _State:
     def finish(self, planes: np.ndarray) -> np.ndarray:
         with self.timed("demosaic"):
             mosaic = bayer_mosaic(planes, self.stream.cfa or "RGGB")
-            return demosaic_bilinear(mosaic, self.stream.cfa) if self.stream.cfa else mosaic
+            if not self.stream.cfa:
+                return mosaic
+            if self.p.demosaic == "bilinear":
+                return demosaic_bilinear(mosaic, self.stream.cfa)
+            from spikeref.demosaic import demosaic_mhc
+
+            return demosaic_mhc(mosaic, self.stream.cfa)
 
     def output(self, k: int, keep_steps: bool) -> ReconstructedFrame:
         L = self.p.L
@@ -533,14 +547,31 @@ class _State:
             del self.counts[key]
 
 
-def _check_align_size(h: int, w: int, p: ReconstructParams) -> None:
-    """Frames must hold one finest tile of every step and one coarse tile at the coarsest level."""
+def _fit_align_size(h: int, w: int, p: ReconstructParams) -> ReconstructParams:
+    """``p``, its alignment cut down to frames of ``h × w`` plane pixels when they are too small.
+
+    Alignment needs one finest tile of every step ``0 … L−1`` and one coarse tile at the coarsest
+    level (:meth:`AlignParams.min_size`, the rule :func:`align` itself applies).  Frames that hold
+    them keep ``p`` itself (the same result, bit for bit); smaller ones align with
+    :meth:`AlignParams.fitted` (fewer levels, smaller finest tiles) or, when not even one level
+    fits, not at all (``align=False``: zero flow), and a one-line ``UserWarning`` says so.
+    """
+    import dataclasses
+    import warnings
+
     a = p.align_params
-    need = max(a.min_size(level) for level in range(p.L))  # the rule align() itself applies
-    if min(h, w) < need:
-        raise ValueError(f"frames are {h}×{w} on the Bayer-plane grid ({2 * h}×{2 * w} pixels); alignment with "
-                         f"levels={a.levels}, coarse_tile={a.coarse_tile} needs at least {need}×{need} "
-                         f"({2 * need}×{2 * need} pixels) — use a smaller AlignParams or align=False")
+    need = max(a.min_size(level) for level in range(p.L))
+    if min(h, w) >= need:
+        return p
+    fitted = a.fitted(h, w)
+    small = (f"{2 * h}×{2 * w} frames ({h}×{w} per Bayer plane) are too small for the alignment pyramid "
+             f"(levels={a.levels}, tile_by_step={a.tile_by_step} need {need}×{need} per plane)")
+    if fitted is None:
+        warnings.warn(f"{small}: not aligned, zero flow (as align=False)", UserWarning, stacklevel=3)
+        return dataclasses.replace(p, align=False)
+    warnings.warn(f"{small}: aligned with levels={fitted.levels}, tile_by_step={fitted.tile_by_step}", UserWarning,
+                  stacklevel=3)
+    return dataclasses.replace(p, align_params=fitted)
 
 
 def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visible", denoiser=None,

@@ -24,6 +24,8 @@ rung                what it is
                     binomial weights, no denoiser — what perfect alignment would give
 ``true_flow_d``     the same, then our denoiser (told the exposure of ``I_L``)
 ``limit``           the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
+``ours_mhc``,       beyond Ψ: ours and the limit with the Malvar–He–Cutler demosaic instead of Ψ for
+``limit_mhc``       the output (:mod:`spikeref.demosaic`, ``ReconstructParams(demosaic="mhc")``)
 ==================  ==============================================================================
 
 The true-flow rungs need a motion model (:meth:`SceneContent.true_flow`); the fan has none and
@@ -45,12 +47,13 @@ __all__ = ["RUNGS", "RUNG_LABELS", "LadderSetting", "binomial_weights", "true_fl
 
 #: The rungs, bottom to top.
 RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
-         "true_flow_d", "limit")
+         "true_flow_d", "limit", "ours_mhc", "limit_mhc")
 RUNG_LABELS = {
     "tfp": "TFP(W)", "bm3d": "BM3D on W", "nlm": "NLM on W", "net": "D on W", "tfp_support": "TFP(support)",
     "no_align": "no alignment", "no_denoiser": "no denoiser", "paper": "paper's Fig. 3(b)", "ours": "ours",
     "true_flow": "true flow",
-    "true_flow_d": "true flow + D", "limit": "limit (Ψ of truth)",
+    "true_flow_d": "true flow + D", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
+    "limit_mhc": "limit, MHC demosaic",
 }
 #: Border left out of the end-point error, full-resolution pixels.
 EPE_BORDER = 8
@@ -199,13 +202,17 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, 
                     out["true_flow"].append(psi(tf))
                 if "true_flow_d" in rungs:
                     out["true_flow_d"].append(psi(denoiser(tf, "visible", window=exposure_planes(w, K, L))))
-        if "limit" in rungs:
+        if "limit" in rungs or "limit_mhc" in rungs:
             truth = sc.reference(t)  # (H, W, 3)
             from spikeref.bayer import cfa_channel_map
+            from spikeref.demosaic import demosaic_mhc
 
             chan = cfa_channel_map(truth.shape[0], truth.shape[1], cfa)
             mosaic = np.take_along_axis(truth, chan[..., None].astype(np.int64), axis=-1)[..., 0]
-            out["limit"].append(demosaic_bilinear(mosaic.astype(np.float32), cfa))
+            if "limit" in rungs:
+                out["limit"].append(demosaic_bilinear(mosaic.astype(np.float32), cfa))
+            if "limit_mhc" in rungs:
+                out["limit_mhc"].append(demosaic_mhc(mosaic.astype(np.float32), cfa))
 
     def run(params, den, keep):
         rec = Reconstructor(view, params, den)
@@ -236,6 +243,8 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, 
                 true, vis = plane_flow(sc.scene.content, t_ref, t_ref + i * w)
                 if true is not None:
                     epe.setdefault(level, []).append(_epe(f, true, vis))
+    if "ours_mhc" in rungs:
+        out["ours_mhc"] = run(replace(base, demosaic="mhc"), denoiser, False)[0]
     if "no_align" in rungs:
         out["no_align"] = run(replace(base, align=False), denoiser, False)[0]
     if "no_denoiser" in rungs:

@@ -116,6 +116,22 @@ def _inputs_mosaic():
     return {"mosaic": np.random.default_rng(4).random((6, 8))}
 
 
+def _inputs_mhc():
+    return {"mosaic": np.random.default_rng(41).random((10, 12))}
+
+
+def _mhc_oracle(i):
+    from spikeref.oracles.demosaic import demosaic_mhc_oracle
+
+    return {f"rgb_{c.lower()}": demosaic_mhc_oracle(i["mosaic"], c) for c in _bayer.CFA_PATTERNS}
+
+
+def _mhc_fast(i):
+    from spikeref.demosaic import demosaic_mhc
+
+    return {f"rgb_{c.lower()}": demosaic_mhc(i["mosaic"], c) for c in _bayer.CFA_PATTERNS}
+
+
 def _inputs_camera():
     rng = np.random.default_rng(5)
     charge = np.concatenate([np.full((20, 1, 4), [0.25, 0.5, 0.125, 1.0]),
@@ -497,6 +513,15 @@ CASES: list[GoldenCase] = [
         atol=1e-12, params={"cfa": cfa},
     )
     for cfa in _bayer.CFA_PATTERNS
+] + [
+    GoldenCase(
+        "demosaic_mhc", "— (not in the paper; ReconstructParams(demosaic=\"mhc\"), beyond Eq. 13's Ψ)",
+        "spikeref.demosaic.demosaic_mhc", "spikeref.oracles.demosaic.demosaic_mhc_oracle",
+        "Malvar–He–Cutler (2004) demosaic of a random 10×12 mosaic with each of the four patterns: the sampled "
+        "colour kept, the others from the five 5×5 filters in eighths, the mosaic mirrored about its edge "
+        "pixels (index −1 → 1), negative results clipped to 0.",
+        _inputs_mhc, _mhc_oracle, _mhc_fast, rtol=1e-10, atol=1e-12, params={"cfas": list(_bayer.CFA_PATTERNS)},
+    ),
 ] + [
     GoldenCase(
         "tfp", "Eq. 4 / TFP (Zhu et al. 2019)", "spikeref.baselines.tfp",

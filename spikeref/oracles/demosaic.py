@@ -1,0 +1,49 @@
+"""Oracle for the Malvar–He–Cutler demosaic (:mod:`spikeref.demosaic`; an option beyond the paper's Ψ)."""
+
+import numpy as np
+
+__all__ = ["demosaic_mhc_oracle"]
+
+_G_AT_RB = [[0, 0, -1, 0, 0], [0, 0, 2, 0, 0], [-1, 2, 4, 2, -1], [0, 0, 2, 0, 0], [0, 0, -1, 0, 0]]
+_AT_G_ROW = [[0, 0, 0.5, 0, 0], [0, -1, 0, -1, 0], [-1, 4, 5, 4, -1], [0, -1, 0, -1, 0], [0, 0, 0.5, 0, 0]]
+_AT_G_COL = [list(r) for r in zip(*_AT_G_ROW, strict=True)]
+_AT_OPPOSITE = [[0, 0, -1.5, 0, 0], [0, 2, 0, 2, 0], [-1.5, 0, 6, 0, -1.5], [0, 2, 0, 2, 0], [0, 0, -1.5, 0, 0]]
+
+
+def demosaic_mhc_oracle(mosaic, cfa="RGGB"):
+    """Pixel by pixel: the sampled colour kept, the other two from the 5×5 filters (eighths), ≥ 0.
+
+    Beyond the border the mosaic is mirrored about its edge pixels (index −1 → 1, ``H`` → ``H − 2``,
+    repeated for small images).
+    """
+    m = np.asarray(mosaic, dtype=np.float64)
+    h, w = m.shape
+    colour = [[cfa[(y % 2) * 2 + (x % 2)] for x in range(w)] for y in range(h)]
+
+    def fold(i, n):  # mirror about the edge pixels, repeated: period 2(n − 1)
+        if n == 1:
+            return 0
+        i %= 2 * (n - 1)
+        return 2 * (n - 1) - i if i >= n else i
+
+    def at(y, x):
+        return m[fold(y, h), fold(x, w)]
+
+    def filt(kernel, y, x):
+        return sum(kernel[i][j] * at(y + i - 2, x + j - 2) for i in range(5) for j in range(5)) / 8.0
+
+    out = np.zeros((h, w, 3))
+    for y in range(h):
+        for x in range(w):
+            here = colour[y][x]
+            for c, name in enumerate("RGB"):
+                if here == name:
+                    v = m[y, x]
+                elif name == "G":
+                    v = filt(_G_AT_RB, y, x)
+                elif here == "G":
+                    v = filt(_AT_G_ROW if name in cfa[(y % 2) * 2:(y % 2) * 2 + 2] else _AT_G_COL, y, x)
+                else:
+                    v = filt(_AT_OPPOSITE, y, x)
+                out[y, x, c] = max(v, 0.0)
+    return out
