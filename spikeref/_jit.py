@@ -1,15 +1,26 @@
 """Numba configuration shared by every kernel module.
 
-``cache=True`` is never hard-coded: on a read-only install Numba cannot write
-its cache next to the source and the import would fail.  Instead, caching is
-switched on at import time only when a writable cache location exists:
+Compiled kernels are cached in a per-user folder, never inside the package: an installed
+package must stay as it was installed (a read-only ``site-packages`` would make Numba fail, and
+cache files left in a writable one outlive an uninstall and shadow a later install).  The folder
+is chosen when this module is first imported, before Numba is:
 
-* ``NUMBA_CACHE_DIR`` when it is set and writable, else
-* the package's own ``__pycache__`` when writable (editable installs, clones).
+* ``NUMBA_CACHE_DIR`` when the user set it (caching is off if it cannot be created or written);
+* else the user's cache folder (:func:`default_cache_dir`): ``$XDG_CACHE_HOME/spikeref/numba``,
+  else ``~/.cache/spikeref/numba`` (``~/Library/Caches/spikeref/numba`` on macOS,
+  ``%LOCALAPPDATA%\\spikeref\\numba`` on Windows), created on demand; if it cannot be created or
+  written, caching is off (the kernels then compile in every process, nothing is written).
 
-Set ``SPIKEREF_NUMBA_CACHE=0`` to turn caching off.  ``NUMBA_DISABLE_JIT=1``
-is honoured by Numba itself: the kernels then run as plain Python (slowly),
-which the tests use to check that oracle and kernel agree.
+Numba reads ``NUMBA_CACHE_DIR`` when it configures itself (at import, and again before every
+compilation), so the chosen folder is put into ``os.environ`` (child processes, Dask workers
+among them, inherit it) and into ``numba.config`` (for a process that imported Numba before
+spikeref).  Other Numba functions of the same process that ask for ``cache=True`` are then
+cached in that folder too, each under its own sub-folder named after its source file.
+
+``cache=True`` is never hard-coded: :func:`njit` passes :data:`caching_enabled`.  Set
+``SPIKEREF_NUMBA_CACHE=0`` to turn caching off.  ``NUMBA_DISABLE_JIT=1`` is honoured by Numba
+itself: the kernels then run as plain Python (slowly), which the tests use to check that oracle
+and kernel agree.
 
 Numba is a runtime dependency.  Where it is not installed (a training machine that only
 runs :mod:`spikeref.denoise.train`, say), the package still imports and the kernels run as
@@ -18,18 +29,34 @@ plain Python, exactly as under ``NUMBA_DISABLE_JIT=1``.
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import sys
 from pathlib import Path
 
-try:
-    import numba
-except ImportError:  # pragma: no cover - exercised only on machines without Numba
-    numba = None
+__all__ = ["njit", "prange", "caching_enabled", "cache_dir", "default_cache_dir", "numba_available"]
 
-__all__ = ["njit", "prange", "caching_enabled", "numba_available"]
 
-numba_available: bool = numba is not None
-prange = numba.prange if numba is not None else range
+def default_cache_dir() -> Path | None:
+    """The per-user folder for spikeref's compiled kernels, or ``None`` when there is no home.
+
+    ``$XDG_CACHE_HOME/spikeref/numba`` (an absolute ``XDG_CACHE_HOME`` only, as the XDG base
+    directory specification says), else ``~/.cache/spikeref/numba``; on macOS
+    ``~/Library/Caches/spikeref/numba`` and on Windows ``%LOCALAPPDATA%\\spikeref\\numba``.
+    The folder is not created here.
+    """
+    xdg = os.environ.get("XDG_CACHE_HOME", "")
+    if xdg and os.path.isabs(xdg):
+        return Path(xdg) / "spikeref" / "numba"
+    if sys.platform == "win32" and os.environ.get("LOCALAPPDATA"):
+        return Path(os.environ["LOCALAPPDATA"]) / "spikeref" / "numba"
+    try:
+        home = Path.home()
+    except (RuntimeError, KeyError, OSError):  # no HOME and no password-database entry
+        return None
+    if sys.platform == "darwin":
+        return home / "Library" / "Caches" / "spikeref" / "numba"
+    return home / ".cache" / "spikeref" / "numba"
 
 
 def _writable(directory: Path) -> bool:
@@ -37,21 +64,40 @@ def _writable(directory: Path) -> bool:
         directory.mkdir(parents=True, exist_ok=True)
     except OSError:
         return False
-    return os.access(directory, os.W_OK | os.X_OK)
+    return directory.is_dir() and os.access(directory, os.W_OK | os.X_OK)
 
 
-def _decide_caching() -> bool:
-    if numba is None or os.environ.get("SPIKEREF_NUMBA_CACHE", "1") == "0":
-        return False
+def _choose_cache_dir() -> Path | None:
+    """Where compiled kernels go, or ``None`` for no caching (see the module doc)."""
+    if importlib.util.find_spec("numba") is None or os.environ.get("SPIKEREF_NUMBA_CACHE", "1") == "0":
+        return None
     if os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0"):
-        return False
-    env_dir = os.environ.get("NUMBA_CACHE_DIR")
-    if env_dir:
-        return _writable(Path(env_dir))
-    return _writable(Path(__file__).resolve().parent / "__pycache__")
+        return None
+    user_dir = os.environ.get("NUMBA_CACHE_DIR")
+    directory = Path(user_dir) if user_dir else default_cache_dir()
+    if directory is None or not _writable(directory):
+        return None
+    return directory
 
 
-caching_enabled: bool = _decide_caching()
+#: The folder Numba caches spikeref's kernels in, or ``None`` when caching is off.
+cache_dir: Path | None = _choose_cache_dir()
+if cache_dir is not None and not os.environ.get("NUMBA_CACHE_DIR"):
+    os.environ["NUMBA_CACHE_DIR"] = str(cache_dir)  # before Numba reads its configuration
+
+try:
+    import numba
+except ImportError:  # pragma: no cover - exercised only on machines without Numba
+    numba = None
+    cache_dir = None
+
+if cache_dir is not None and numba.config.CACHE_DIR != os.environ["NUMBA_CACHE_DIR"]:
+    numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]  # Numba was imported before spikeref
+
+numba_available: bool = numba is not None
+#: Whether :func:`njit` asks Numba to cache (a writable :data:`cache_dir` exists).
+caching_enabled: bool = cache_dir is not None
+prange = numba.prange if numba is not None else range
 
 
 def njit(*args, parallel: bool = False, **kwargs):

@@ -36,7 +36,9 @@ Interpretations (DESIGN §4; the paper names HDR+ and the pyramid, nothing finer
 * **Minimum frame size.**  Every level ``k`` must hold one tile at scale ``2^−k`` exactly:
   ``min(h, w) ≥ coarse_tile · 2^(levels−1)`` (when ``levels > 1``) and ``≥`` the finest tile
   (:meth:`AlignParams.min_size`; 64 plane pixels with the defaults).  This is slightly
-  conservative (odd sizes round up under decimation) and is the rule the pipeline checks.
+  conservative (odd sizes round up under decimation).  The pipeline aligns smaller frames with
+  :meth:`AlignParams.fitted` (fewer levels, smaller finest tiles; zero flow where not even one
+  tile fits) and says so in a warning.
 * **Search.**  Coarse to fine; at the coarsest level the search centre is 0.  At level ``k``
   every integer offset ``u = g + d``, ``d ∈ [−r_k, r_k]²`` around the centre ``g`` is tried,
   ``r_k = params.search_radius[k]``.  The distance is the sum over the tile of
@@ -239,6 +241,46 @@ class AlignParams:
         if self.levels > 1:
             need = max(need, self.coarse_tile * 2 ** (self.levels - 1))
         return need
+
+    def fitted(self, height: int, width: int) -> "AlignParams | None":
+        """These parameters cut down to fit frames of ``height × width`` plane pixels.
+
+        The largest pyramid of these settings that such frames hold (the rule of
+        :meth:`min_size`, for every step): with ``n = min(height, width)``,
+
+        * the levels drop, coarsest first, to the most with ``coarse_tile · 2^(levels−1) ≤ n``
+          (one level, the image itself, needs no coarse tile); ``search_radius`` keeps the
+          radii of the levels left; ``coarse_tile`` is kept;
+        * every finest tile larger than ``n`` becomes the largest even size ``≤ n``.
+
+        Parameters
+        ----------
+        height, width : int
+            Frame size on the plane grid (≥ 1).
+
+        Returns
+        -------
+        AlignParams or None
+            ``self`` when it fits already (``n ≥ min_size(step)`` for every entry of
+            ``tile_by_step``); ``None`` when not even one level fits: ``n < 2`` (a tile is at
+            least 2×2), or ``n < 3`` with ``prefer_centre > 0`` (its noise estimate,
+            :func:`local_noise`, needs 3×3 pixels).  The pipeline then uses zero flow.
+        """
+        for name, v in (("height", height), ("width", width)):
+            if not _is_int(v) or v < 1:
+                raise ValueError(f"{name} must be an integer ≥ 1 (plane pixels); got {v!r}")
+        n = int(min(height, width))
+        if n >= max(self.min_size(step) for step in range(len(self.tile_by_step))):
+            return self
+        if n < 2 or (self.prefer_centre > 0 and n < 3):
+            return None
+        levels = self.levels
+        while levels > 1 and self.coarse_tile * 2 ** (levels - 1) > n:
+            levels -= 1
+        largest = n - n % 2
+        return AlignParams(levels=levels, tile_by_step=tuple(min(t, largest) for t in self.tile_by_step),
+                           coarse_tile=self.coarse_tile, search_radius=self.search_radius[:levels],
+                           subpixel=self.subpixel, prefer_centre=self.prefer_centre)
 
 
 #: The default parameters (the default of every ``params`` argument).

@@ -282,6 +282,30 @@ def test_params_defaults_and_validation():
         p.tile_for_step(-1)
 
 
+def test_fitted_params_cut_the_pyramid_to_the_frame():
+    p = AlignParams(prefer_centre=3.0)
+    assert p.fitted(64, 100) is p and p.fitted(1000, 64) is p  # fits already: the very parameters
+    three = p.fitted(32, 40)  # 8 · 2^(levels−1) ≤ 32: the coarsest level goes
+    assert (three.levels, three.tile_by_step, three.coarse_tile, three.search_radius) == (3, (32, 16, 8), 8, (1, 4, 4))
+    assert (three.subpixel, three.prefer_centre) == (p.subpixel, p.prefer_centre)
+    one = p.fitted(8, 8)  # one level; tiles of at most 8
+    assert (one.levels, one.tile_by_step, one.search_radius) == (1, (8, 8, 8), (1,))
+    assert p.fitted(20, 13).tile_by_step == (12, 12, 8) and p.fitted(20, 13).levels == 1  # the largest even ≤ 13
+    assert AlignParams().fitted(2, 5).tile_by_step == (2, 2, 2)  # the plain search: 2×2 tiles
+    assert AlignParams().fitted(1, 5) is None and p.fitted(2, 5) is None  # no tile, or no 3×3 noise estimate
+    assert p.fitted(3, 3).tile_by_step == (2, 2, 2)
+    for h, w in ((32, 40), (8, 8), (20, 13), (3, 3), (17, 200)):
+        f = p.fitted(h, w)
+        assert all(min(h, w) >= f.min_size(step) for step in range(3)), (h, w, f)
+        ref = texture((h, w), seed=h)
+        flow = align(ref, np.roll(ref, 1, axis=1), step=0, params=f)  # align() accepts what fitted() gives
+        assert flow.shape == (2, h, w) and np.all(np.isfinite(flow))
+    with pytest.raises(ValueError, match="height must be an integer ≥ 1"):
+        p.fitted(0, 8)
+    with pytest.raises(ValueError, match="width must be an integer ≥ 1"):
+        p.fitted(8, 2.5)
+
+
 def test_bad_input_names_the_argument():
     ok = np.zeros((64, 64), np.float32)
     with pytest.raises(ValueError, match="reference must be finite"):

@@ -1,9 +1,12 @@
 """The package's public names: every one resolves, and the functions that share a name with
 their module (``accumulate``, ``align``, ``noise_check``) stay callable in any import order
-(a defect the stability suite found: importing the submodule replaced the function)."""
+(a defect the stability suite found: importing the submodule replaced the function); compiling a
+kernel writes nothing inside the package (the Numba cache is per user, :mod:`spikeref._jit`)."""
 
 import subprocess
 import sys
+
+import pytest
 
 import spikeref as sr
 
@@ -31,3 +34,77 @@ def test_every_public_name_resolves():
 def test_functions_named_like_their_module_are_callable_whatever_was_imported_first():
     out = subprocess.run([sys.executable, "-c", CHILD], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "ok", out.stderr
+
+
+# ------------------------------------------------------------------ the Numba cache lives outside the package
+CACHE_CHILD = """
+if {numba_first}:
+    import numba  # a program that imported Numba before spikeref
+import numpy as np
+import spikeref as sr
+from spikeref import _jit
+assert sr.accumulate(np.ones((20, 4, 6), np.uint8), 10).shape == (2, 4, 6)
+print(sr.__file__)
+print(_jit.caching_enabled, getattr(_jit, "cache_dir", None))
+"""
+
+
+def _files(folder):
+    return {p.relative_to(folder) for p in folder.rglob("*") if p.is_file()} if folder.exists() else set()
+
+
+@pytest.mark.parametrize("case", ["default", "numba imported first", "NUMBA_CACHE_DIR", "no cache folder"])
+def test_numba_cache_is_written_outside_the_package(tmp_path, case):
+    """An installed copy of the package gains no file when its kernels compile (the cache is per user)."""
+    import os
+    import shutil
+    from pathlib import Path
+
+    site = tmp_path / "site"
+    shutil.copytree(Path(sr.__file__).parent, site / "spikeref", ignore=shutil.ignore_patterns("__pycache__"))
+    xdg, home, mine = tmp_path / "xdg", tmp_path / "home", tmp_path / "mine"
+    home.mkdir()
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("NUMBA_CACHE_DIR", "SPIKEREF_NUMBA_CACHE", "NUMBA_DISABLE_JIT", "PYTHONPATH")}
+    env.update(HOME=str(home), XDG_CACHE_HOME=str(xdg), PYTHONPATH=str(site), PYTHONDONTWRITEBYTECODE="1")
+    if case == "NUMBA_CACHE_DIR":
+        env["NUMBA_CACHE_DIR"] = str(mine)
+    if case == "no cache folder":
+        (tmp_path / "a_file").write_text("")
+        env["XDG_CACHE_HOME"] = str(tmp_path / "a_file" / "cache")  # cannot be created
+    before = _files(site)
+    out = subprocess.run([sys.executable, "-c", CACHE_CHILD.format(numba_first=case == "numba imported first")],
+                         capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    location, caching = out.stdout.split("\n")[:2]
+    assert Path(location).resolve().is_relative_to((site / "spikeref").resolve()), location
+    assert _files(site) == before, sorted(map(str, _files(site) - before))
+    expected = {"NUMBA_CACHE_DIR": mine, "no cache folder": None}.get(case, xdg / "spikeref" / "numba")
+    for folder in (xdg, mine, home):
+        cached = {p for p in _files(folder) if p.suffix in (".nbi", ".nbc")}
+        if expected is not None and (folder == expected or folder in expected.parents):
+            assert cached, f"no Numba cache files in {expected}: {caching}"
+            assert caching == f"True {expected}"
+        else:
+            assert not cached, f"{case}: Numba cache files in {folder}"
+    if expected is None:
+        assert caching == "False None"
+
+
+def test_the_test_extra_brings_the_light_extras():
+    """``pip install -e ".[test]"`` installs what the plot and Dask tests need (torch stays CI's own install)."""
+    import re
+    from pathlib import Path
+
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10
+        import tomli as tomllib
+
+    pyproject = Path(__file__).resolve().parents[1] / "pyproject.toml"
+    extras = tomllib.loads(pyproject.read_text(encoding="utf-8"))["project"]["optional-dependencies"]
+    for extra in ("plot", "dask"):
+        for requirement in extras[extra]:
+            assert requirement in extras["test"], f"the test extra lacks {requirement!r} of the {extra} extra"
+    names = {re.match(r"[A-Za-z0-9_.-]+", r).group().lower() for r in extras["test"]}
+    assert "torch" not in names

@@ -17,7 +17,8 @@ from spikeref.simulate.scenes import (
 from spikeref.tonemap import srgb_decode
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "scenes"
-PROCEDURAL_EXAMPLES = sorted(p.name for p in EXAMPLES.glob("*.toml") if p.name != "video.toml")
+ALL_EXAMPLES = sorted(p.name for p in EXAMPLES.glob("*.toml"))
+PROCEDURAL_EXAMPLES = [name for name in ALL_EXAMPLES if name != "video.toml"]
 RATE = 20000.0
 
 
@@ -67,20 +68,49 @@ def test_low_light_example_is_dim_and_noisy():
     assert {"shot_noise", "dark_current", "inherent_noise"} <= set(scene.effects)
 
 
-def test_video_example_loads_once_its_frames_exist(tmp_path):
-    with pytest.raises(FileNotFoundError, match=r"video\.toml: content\.path"):
-        load_scene(EXAMPLES / "video.toml")
-    _write_frames(tmp_path / "my_frames", (0, 255))
+def test_video_example_reads_the_frames_it_ships_with():
+    """``video.toml`` loads as shipped: the three frames of ``make_video_frames.py``, sRGB-decoded."""
+    import importlib.util
+
+    scene = load_scene(EXAMPLES / "video.toml")
+    assert (scene.height, scene.width) == (32, 48) and scene.content.fps == 30.0
+    spec = importlib.util.spec_from_file_location("make_video_frames", EXAMPLES / "make_video_frames.py")
+    maker = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(maker)
+    brightness = dict(scene.content.source_options)["brightness"]
+    assert scene.content.frames.shape == (maker.FRAMES, maker.HEIGHT, maker.WIDTH, 3)
+    for i in range(maker.FRAMES):  # the PNGs are what the script makes
+        expected = srgb_decode(maker.frame(i).astype(np.float32) / 255) * brightness
+        np.testing.assert_allclose(scene.content.frames[i], expected, rtol=1e-6, atol=1e-7)
+        np.testing.assert_allclose(scene.radiance([i * RATE / 30])[0], expected, rtol=1e-5, atol=1e-6)
+
+
+def test_video_template_reads_a_users_frames(tmp_path):
+    _write_frames(tmp_path / "video_frames", (0, 255))
     shutil.copy(EXAMPLES / "video.toml", tmp_path / "video.toml")
     scene = load_scene(tmp_path / "video.toml")
-    assert (scene.height, scene.width) == (6, 8) and scene.content.fps == 240.0
+    assert (scene.height, scene.width) == (6, 8) and scene.content.fps == 30.0
     brightness = scene.content.source_options[0][1]
     np.testing.assert_array_equal(scene.radiance([0.0])[0], 0.0)
-    np.testing.assert_allclose(scene.radiance([RATE / 240])[0], brightness, rtol=1e-6)  # frame 1 (white)
-    np.testing.assert_allclose(scene.radiance([RATE / 240 / 2])[0], brightness / 2, rtol=1e-6)  # half-way
+    np.testing.assert_allclose(scene.radiance([RATE / 30])[0], brightness, rtol=1e-6)  # frame 1 (white)
+    np.testing.assert_allclose(scene.radiance([RATE / 30 / 2])[0], brightness / 2, rtol=1e-6)  # half-way
     np.testing.assert_allclose(scene.radiance([1e6])[0], brightness, rtol=1e-6)  # holds the last frame
     again = scene_from_dict(scene_to_dict(scene))
     assert again.content == scene.content and np.array_equal(again.content.frames, scene.content.frames)
+    (tmp_path / "video.toml").write_text((EXAMPLES / "video.toml").read_text().replace('"video_frames/"',
+                                                                                      '"my_frames/"'))
+    with pytest.raises(FileNotFoundError, match=r"video\.toml: content\.path"):
+        load_scene(tmp_path / "video.toml")  # a path that does not exist is named
+
+
+@pytest.mark.parametrize("name", ALL_EXAMPLES)
+def test_every_example_scene_simulates_as_shipped(name):
+    from spikeref.simulate.simulator import simulate
+
+    scene = load_scene(EXAMPLES / name, overrides={"planes": 12})
+    result = simulate(scene, seed=0)
+    assert result.spikes.shape == (12, scene.height, scene.width) and result.spikes.dtype == np.uint8
+    assert result.spikes.max() <= 1 and result.spikes.any(), name
 
 
 # --------------------------------------------------------------------------- every content type

@@ -293,6 +293,71 @@ def test_pipeline_without_flow_is_shift_equivariant_by_bayer_periods(rng):
         np.testing.assert_allclose(np.roll(x, (2, -4), axis=(0, 1))[inner], y[inner], rtol=1e-6)
 
 
+def _alignment_notes(record):
+    return [str(w.message) for w in record if "alignment pyramid" in str(w.message)]
+
+
+@pytest.mark.parametrize("size, fitted", [
+    (64, "aligned with levels=3, tile_by_step=(32, 16, 8)"),  # 32×32 planes: the coarsest level goes
+    (16, "aligned with levels=1, tile_by_step=(8, 8, 8)"),  # 8×8 planes: one level of 8-pixel tiles
+    (2, "not aligned, zero flow"),  # 1×1 planes: not even a 2×2 tile
+])
+def test_default_reconstruction_of_small_colour_streams_fits_its_alignment(rng, size, fitted):
+    """The defaults (bundled denoiser, noise-aware alignment) on frames too small for the pyramid: finite
+    frames of the right shape, and one note of what alignment was reduced to."""
+    import warnings
+
+    from spikeref.pipeline import ReconstructParams, Reconstructor, reconstruct
+
+    spikes = (rng.random((90, size, size)) < rng.random((size, size)) * 0.7).astype(np.uint8)
+    for run in ("Reconstructor", "reconstruct"):
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            if run == "Reconstructor":
+                rec = Reconstructor(SpikeStream.from_array(spikes, cfa="RGGB"))
+                frames = [f.rgb for f in rec.frames()]
+            else:
+                frames = list(reconstruct(spikes))
+        notes = _alignment_notes(record)
+        assert len(notes) == 1 and "\n" not in notes[0], notes
+        assert notes[0].startswith(f"{size}×{size} frames ({size // 2}×{size // 2} per Bayer plane) are too small")
+        assert fitted in notes[0], notes[0]
+        assert len(frames) == 3, run
+        for rgb in frames:
+            assert rgb.shape == (size, size, 3) and rgb.dtype == np.float32 and np.all(np.isfinite(rgb)), run
+    assert rec.params.align == (size > 2) and rec.params != ReconstructParams()
+
+
+def test_default_reconstruction_of_frames_large_enough_keeps_its_alignment(rng):
+    """No note, and the very parameters given, where the pyramid fits (256×256; 128×128 exactly)."""
+    import warnings
+
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+
+    for size in (256, 128):
+        spikes = (rng.random((70, size, size)) < 0.3).astype(np.uint8)
+        params = ReconstructParams()
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            rec = Reconstructor(SpikeStream.from_array(spikes, cfa="RGGB"), params)
+            if size == 256:
+                (frame,) = rec.frames()
+                assert frame.rgb.shape == (256, 256, 3) and np.all(np.isfinite(frame.rgb))
+        assert _alignment_notes(record) == [] and rec.params is params
+
+
+def test_cli_reconstruct_of_a_small_stream_prints_one_note(tmp_path, rng, capsys):
+    from spikeref.cli import main
+
+    np.save(tmp_path / "small.npy", (rng.random((80, 64, 64)) < 0.3).astype(np.uint8))
+    assert main(["reconstruct", str(tmp_path / "small.npy"), "--cfa", "RGGB", "--exr-dir", str(tmp_path / "exr")]) == 0
+    err = capsys.readouterr().err
+    notes = [line for line in err.splitlines() if "note:" in line]
+    assert len(notes) == 1 and notes[0].startswith("spikeref reconstruct: note: 64×64 frames"), err
+    assert "aligned with levels=3" in notes[0] and "UserWarning" not in err and "Reconstructor(" not in err
+    assert len(list((tmp_path / "exr").glob("*.exr"))) == 2  # 8 windows: frames 3 and 4
+
+
 @pytest.mark.slow
 def test_long_memory_mapped_recording_streams_in_bounded_memory(tmp_path):
     """200 000 planes of an 8×8 RGGB frame from a .dat: the traced peak does not grow with length."""
