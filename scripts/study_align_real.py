@@ -58,6 +58,10 @@ def variants() -> dict:
         "composed z3 smoothed": {"warp": "composed", "align_params": AlignParams(prefer_centre=3.0),
                                  "flow_frames": "smoothed"},
         "composed z4": {"warp": "composed", "align_params": AlignParams(prefer_centre=4.0)},
+        "composed z4 smoothed": {"warp": "composed", "align_params": AlignParams(prefer_centre=4.0),
+                                 "flow_frames": "smoothed"},
+        "composed z5 smoothed": {"warp": "composed", "align_params": AlignParams(prefer_centre=5.0),
+                                 "flow_frames": "smoothed"},
     }
 
 
