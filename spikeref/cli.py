@@ -8,19 +8,183 @@ Every subcommand prints ``--help`` with units and defaults.  Spike files are
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
+import math
+import os
+import shlex
+import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "CliError", "RunFailed", "Interrupted"]
 
 SAMPLE = Path(__file__).resolve().parent / "data" / "sample.dat"
 
 
 class CliError(Exception):
-    """An error to report as one line, without a traceback."""
+    """An error to report as one line, without a traceback; exit status 2 (the command was refused).
+
+    Every command checks all its arguments and inputs before it creates a folder, opens an
+    output, starts a progress bar or a Dask cluster, so a refused command leaves the disk as
+    it found it.
+    """
+
+    status = 2
+
+
+class RunFailed(CliError):
+    """The run had started and an OS error stopped it (a full disk, an unwritable folder): exit status 1."""
+
+    status = 1
+
+
+class Interrupted(CliError):
+    """SIGINT (Ctrl-C) or SIGTERM stopped the run: exit status 130."""
+
+    status = 130
+
+
+class _Terminated(KeyboardInterrupt):
+    """Raised in the main thread by SIGTERM (a batch scheduler's stop); handled like Ctrl-C."""
+
+
+def _signal_name(exc: BaseException) -> str:
+    return "SIGTERM" if isinstance(exc, _Terminated) else "SIGINT"
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    """While a command runs, SIGTERM raises :class:`_Terminated` in the main thread (once), like Ctrl-C."""
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        fired = []
+
+        def handler(signum, frame):
+            if not fired:  # a second SIGTERM during the clean-up does not interrupt the clean-up
+                fired.append(signum)
+                raise _Terminated()
+
+        try:
+            previous = signal.signal(signal.SIGTERM, handler)
+        except (ValueError, OSError):  # pragma: no cover - no signals here (an embedded interpreter)
+            previous = None
+    try:
+        yield
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+# ----------------------------------------------------------------------------- checks
+# Zero is a value like any other, never "not given": options left out are None.
+def _check_int(value, flag: str, minimum: int = 1, what: str = "a positive whole number") -> None:
+    """Refuse an integer option below ``minimum`` (``None``: not given, nothing to check)."""
+    if value is not None and value < minimum:
+        raise CliError(f"{flag} must be {what}; got {value}")
+
+
+def _check_float(value, flag: str, positive: bool = True) -> None:
+    """Refuse a float option that is not finite, or not > 0 (``positive``) / not ≥ 0."""
+    if value is None:
+        return
+    if not math.isfinite(value) or value < 0 or (positive and value == 0):
+        raise CliError(f"{flag} must be a finite number {'>' if positive else '≥'} 0; got {value:g}")
+
+
+def _check_folder_can_exist(folder: Path, flag: str, target: Path) -> None:
+    """Refuse when ``folder`` cannot be made or written: its nearest existing ancestor must be a writable folder."""
+    p = Path(os.path.abspath(folder))
+    while not p.exists() and p.parent != p:
+        p = p.parent
+    if not p.is_dir():
+        raise CliError(f"{flag} {target}: cannot write there ({p} is not a folder)")
+    if not os.access(p, os.W_OK | os.X_OK):
+        raise CliError(f"{flag} {target}: cannot write there ({p} is not writable)")
+
+
+def _check_output_file(path: Path | None, flag: str, suffixes: tuple[str, ...], kind: str) -> None:
+    """An output file: the right suffix, not an existing folder, in a folder that can be made."""
+    if path is None:
+        return
+    if path.suffix.lower() not in suffixes:
+        raise CliError(f"{kind} must end in {' or '.join(suffixes)}; got {path.name!r}")
+    if path.is_dir():
+        raise CliError(f"{flag} {path}: is a folder, not a {kind}")
+    _check_folder_can_exist(path.parent, flag, path)
+
+
+def _check_video(path: Path | None, flag: str = "-o/--output") -> None:
+    _check_output_file(path, flag, (".mp4", ".gif"), "video output")
+
+
+def _check_output_dir(path: Path | None, flag: str) -> None:
+    """An output folder: absent (it is made when the run starts) or a folder, where one can be made."""
+    if path is None:
+        return
+    if path.exists() and not path.is_dir():
+        raise CliError(f"{flag} {path}: cannot write there ({path} is not a folder)")
+    _check_folder_can_exist(path, flag, path)
+
+
+def _check_seed(value) -> None:
+    _check_int(value, "--seed", 0, "a whole number ≥ 0")
+
+
+def _load_denoiser(weights, **kw):
+    """``Denoiser.load`` with a damaged weights file reported as one line (before any output is opened)."""
+    import zipfile
+
+    from spikeref.denoise.denoiser import Denoiser
+
+    try:
+        return Denoiser.load(weights, **kw)
+    except (zipfile.BadZipFile, EOFError, KeyError) as exc:
+        raise CliError(f"--weights {weights}: not a readable weights .npz ({type(exc).__name__}: {exc})") from None
+
+
+def _os_error_text(exc: OSError) -> str:
+    """``PATH: reason`` of an OS error (the path the error is about, when it names one)."""
+    if exc.filename is not None and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}"
+    return str(exc)
+
+
+def _continue_hint(exc: BaseException) -> str:
+    """How the one line of a failed run leads to the resume command."""
+    code = getattr(exc, "errno", None)
+    if code in (errno.ENOSPC, errno.EDQUOT):
+        return "once there is space, continue with"
+    if code in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return "once the folder is writable, continue with"
+    return "then continue with"
+
+
+def _resume_command(args, exr_dir: Path | None = None) -> str:
+    """The command line that continues this run: the same arguments plus ``--resume``.
+
+    ``exr_dir`` is the folder the frames went to; it is named when the run chose it itself
+    (``-o rec.mp4`` on Dask writes ``rec_exr/``), because ``--resume`` needs ``--exr-dir``.
+    """
+    argv = list(getattr(args, "argv", None) or [args.command])
+    if exr_dir is not None and getattr(args, "exr_dir", None) is None and getattr(args, "output", None) is not None:
+        argv += ["--exr-dir", str(exr_dir)]
+    if "--resume" not in argv:
+        argv.append("--resume")
+    return "spikeref " + shlex.join(argv)
+
+
+@contextlib.contextmanager
+def _output_phase():
+    """Around the part of a command that writes: an OS error there is a failed run (exit 1), not a refusal."""
+    try:
+        yield
+    except OSError as exc:
+        raise RunFailed(f"{_os_error_text(exc)}; every file already written is whole") from exc
 
 
 # ----------------------------------------------------------------------------- input
@@ -43,10 +207,18 @@ def _add_input_options(p: argparse.ArgumentParser, optional_file: bool = False) 
                    help="readout rate in planes per second (default 20000)")
 
 
+def _check_input_options(args) -> None:
+    """The numeric input options: a given 0 is refused, never read as "not given" (then from NAME.json)."""
+    for name, flag in (("height", "--height"), ("width", "--width"), ("file_width", "--file-width")):
+        _check_int(getattr(args, name, None), flag, 1, "a positive number of pixels")
+    _check_float(getattr(args, "rate_hz", None), "--rate-hz")
+
+
 def open_input(args):
     """Open the stream named by the parsed input options (sizes from the NAME.json sidecar if not given)."""
     from spikeref.io.dat import open_spike_file
 
+    _check_input_options(args)
     path = args.file if getattr(args, "file", None) is not None else SAMPLE
     if not path.exists():
         raise CliError(f"no such file: {path}")
@@ -90,34 +262,57 @@ def cmd_info(args) -> int:
 def cmd_baseline(args) -> int:
     from spikeref.render import render_baseline
 
+    _check_video(args.output)
+    _check_output_dir(args.exr_dir, "--exr-dir")
+    _check_int(args.window, "-W/--window", 1, "a positive number of planes")
+    _check_int(args.every, "--every", 1, "a positive number of planes")
+    _check_float(args.fps, "--fps")
     stream = open_input(args)
-    render_baseline(
-        stream, args.method, args.output, exr_dir=args.exr_dir, window=args.window, every=args.every,
-        fps=args.fps, half=args.half, progress=True,
-    )
+    if args.method == "tfp" and args.window > len(stream):
+        raise CliError(f"window={args.window} is longer than the stream ({len(stream)} planes)")
+    with _output_phase():
+        render_baseline(
+            stream, args.method, args.output, exr_dir=args.exr_dir, window=args.window, every=args.every,
+            fps=args.fps, half=args.half, progress=True,
+        )
     return 0
 
 
 # -------------------------------------------------------------------------- denoise
 def cmd_denoise(args) -> int:
+    import itertools
+
     from tqdm import tqdm
 
-    from spikeref.denoise.denoiser import Denoiser
     from spikeref.render import FrameSink
 
     if args.output is None and args.exr_dir is None:
         raise CliError("give -o VIDEO, --exr-dir DIR, or both")
+    _check_video(args.output)
+    _check_output_dir(args.exr_dir, "--exr-dir")
+    _check_int(args.window, "-W/--window", 1, "a positive number of planes")
+    _check_int(args.start, "--start", 0, "a plane index ≥ 0")
+    _check_int(args.frames, "--frames", 1, "a positive number of frames")
+    _check_float(args.lam, "--lam", positive=False)
+    _check_float(args.fps, "--fps")
     stream = open_input(args)
-    den = Denoiser.load(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink, guard=args.guard)
-    total = (len(stream) - args.start) // args.window if args.window > 0 else 0
+    if args.start >= len(stream):
+        raise CliError(f"--start {args.start}: the stream has {len(stream)} planes")
+    total = (len(stream) - args.start) // args.window
+    if total < 1:
+        raise CliError(f"no whole window of {args.window} planes from plane {args.start} "
+                       f"(the stream has {len(stream)} planes)")
     if args.frames is not None:
         total = min(total, args.frames)
-    with FrameSink(args.output, args.exr_dir, fps=args.fps, half=args.half) as sink:
-        bar = tqdm(total=total, desc=f"denoise ({args.mode})", unit="frame")
-        for k, frame in den.frames(stream, args.window, start=args.start, count=args.frames):
-            sink.add(k, frame)
-            bar.update(1)
-        bar.close()
+    den = _load_denoiser(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink, guard=args.guard)
+    frames = den.frames(stream, args.window, start=args.start, count=args.frames)
+    first = next(frames, None)  # the generator's own checks (and the first frame) before any output is opened
+    with _output_phase():
+        with FrameSink(args.output, args.exr_dir, fps=args.fps, half=args.half) as sink, \
+                tqdm(total=total, desc=f"denoise ({args.mode})", unit="frame", disable=None) as bar:
+            for k, frame in itertools.chain([first] if first is not None else [], frames):
+                sink.add(k, frame)
+                bar.update(1)
     return 0
 
 
@@ -135,10 +330,49 @@ def parse_frames_option(text: str | None):
         raise CliError(f"--frames must look like a:b with integer frame numbers; got {text!r}") from None
 
 
+def _frames_in(args, avail: range, params) -> range:
+    """The ``--frames a:b`` of ``args`` inside the frames ``avail`` the stream has, or a refusal."""
+    a, b = parse_frames_option(args.frames)
+    a = avail.start if a is None else a
+    b = avail.stop if b is None else b
+    if a < avail.start or b > avail.stop or a >= b:
+        raise CliError(f"--frames {a}:{b}: this stream has frames {avail.start}:{avail.stop} "
+                       f"(W={args.window}, K={args.K}, L={args.L}: frame k needs windows k−{params.reach} … "
+                       f"k+{params.reach})")
+    return range(a, b)
+
+
+def _frames_written(exr_dir: Path | None, frames: range) -> int:
+    """How many of ``frames`` have their EXR file in ``exr_dir`` (written by Dask workers, say)."""
+    from spikeref.render import exr_name
+
+    if exr_dir is None or not exr_dir.is_dir():
+        return 0
+    return sum((exr_dir / exr_name(k)).is_file() for k in frames)
+
+
+def _stopped(args, exc: BaseException, exr_dir: Path | None, frames: range, written: int) -> CliError:
+    """The one line for a reconstruction stopped by a signal or an OS error: what is on disk, how to continue.
+
+    ``written`` frames of ``frames`` are whole in ``exr_dir`` (atomic writes); ``--resume`` skips them.
+    """
+    if isinstance(exc, KeyboardInterrupt):
+        cls, what, hint = Interrupted, f"interrupted ({_signal_name(exc)})", "continue with"
+    else:
+        cls, what = RunFailed, (_os_error_text(exc) if isinstance(exc, OSError) else str(exc))
+        hint = _continue_hint(exc)
+    if exr_dir is None:
+        return cls(f"{what}; no frame was kept (the video is written at the end, and there is no --exr-dir): "
+                   "run the command again, with --exr-dir DIR to make it resumable")
+    on_disk = f"{written} of {len(frames)} frames written to {exr_dir}"
+    if cls is Interrupted:
+        return cls(f"{what} with {on_disk}; {hint}: {_resume_command(args, exr_dir)}")
+    return cls(f"{what}; {on_disk}; {hint}: {_resume_command(args, exr_dir)}")
+
+
 def cmd_reconstruct(args) -> int:
     from tqdm import tqdm
 
-    from spikeref.denoise.denoiser import Denoiser
     from spikeref.io.exr import read_exr
     from spikeref.pipeline import ReconstructParams, Reconstructor
     from spikeref.render import FrameSink, exr_name, frame_runs, frames_on_disk
@@ -152,27 +386,24 @@ def cmd_reconstruct(args) -> int:
     chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp),
                                 ("demosaic", args.demosaic)) if v is not None}
     params = make(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align, **chosen)
+    _check_float(args.fps, "--fps")
+    _check_video(video)
+    _check_output_dir(exr_dir, "--exr-dir")
     if args.workers is not None or args.scheduler is not None:
         if args.no_shrink or args.guard is not None or args.paper:
             raise CliError("--no-shrink, --guard and --paper are not passed to Dask workers yet; run without "
                            "--workers/--scheduler")
         return _reconstruct_on_dask(args, params, video, exr_dir)
     stream = open_input(args)
-    a, b = parse_frames_option(args.frames)
     guard = args.guard or ("off" if args.paper else "sure")
     shrink = not (args.no_shrink or args.paper)
-    den = Denoiser.load(args.weights, mode=args.mode, shrink=shrink, guard=guard)
+    den = _load_denoiser(args.weights, mode=args.mode, shrink=shrink, guard=guard)
     rec = Reconstructor(stream, params, den)
-    avail = rec.frames_available
-    a = avail.start if a is None else a
-    b = avail.stop if b is None else b
-    if a < avail.start or b > avail.stop or a >= b:
-        raise CliError(f"--frames {a}:{b}: this stream has frames {avail.start}:{avail.stop} "
-                       f"(W={args.window}, K={args.K}, L={args.L}: frame k needs windows k−{params.reach} … "
-                       f"k+{params.reach})")
+    frames = _frames_in(args, rec.frames_available, params)
+    a, b = frames.start, frames.stop
     done = set()
     if args.resume:
-        done, bad = frames_on_disk(exr_dir, range(a, b), stream.height, stream.width)
+        done, bad = frames_on_disk(exr_dir, frames, stream.height, stream.width)
         if bad:
             print(f"{len(bad)} frame files in {exr_dir} are empty, unreadable or of another size "
                   f"(first: {exr_name(bad[0])}); they are computed again", file=sys.stderr)
@@ -184,19 +415,25 @@ def cmd_reconstruct(args) -> int:
           f"{', flow on ' + params.flow_frames + ' frames, ' + params.warp + ' warp' if not args.no_align else ''}"
           f", guard {guard})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
-    with FrameSink(video, exr_dir, fps=args.fps, half=args.half) as sink:
-        bar = tqdm(total=b - a, desc="reconstruct", unit="frame")
-        for lo, hi, on_disk in frame_runs(a, b, done):
-            if on_disk:  # --resume: read back what an earlier run wrote (the video needs every frame)
-                for k in range(lo, hi):
-                    if video is not None:
-                        sink.add(k, read_exr(exr_dir / exr_name(k)), on_disk=True)
+    written = len(done)  # whole EXR frames of a:b in exr_dir, for the line of an interrupted or failed run
+    try:
+        with FrameSink(video, exr_dir, fps=args.fps, half=args.half) as sink, \
+                tqdm(total=b - a, desc="reconstruct", unit="frame", disable=None) as bar:
+            for lo, hi, on_disk in frame_runs(a, b, done):
+                if on_disk:  # --resume: read back what an earlier run wrote (the video needs every frame)
+                    for k in range(lo, hi):
+                        if video is not None:
+                            sink.add(k, read_exr(exr_dir / exr_name(k)), on_disk=True)
+                        bar.update(1)
+                    continue
+                for frame in rec.frames(lo, hi):
+                    sink.add(frame.index, frame.rgb)
+                    written += exr_dir is not None
                     bar.update(1)
-                continue
-            for frame in rec.frames(lo, hi):
-                sink.add(frame.index, frame.rgb)
-                bar.update(1)
-        bar.close()
+    except (KeyboardInterrupt, OSError) as exc:  # the frames on disk are whole (atomic writes): say how to go on
+        if exr_dir is not None and not exr_dir.is_dir():
+            written = 0  # the folder itself is gone
+        raise _stopped(args, exc, exr_dir, frames, written) from exc
     for path in (video, exr_dir):
         if path is not None:
             print(f"wrote {path}", file=sys.stderr)
@@ -206,29 +443,41 @@ def cmd_reconstruct(args) -> int:
 def _reconstruct_on_dask(args, params, video, exr_dir) -> int:
     import time
 
-    from spikeref.distributed import assemble_video, reconstruct_distributed
+    from spikeref.distributed import ChunkError, assemble_video, reconstruct_distributed
+    from spikeref.pipeline import frame_range
 
     if args.workers is not None and args.scheduler is not None:
         raise CliError("give --workers (a local cluster) or --scheduler (an existing one), not both")
     if args.workers is not None and args.workers < 1:
         raise CliError(f"--workers must be at least 1; got {args.workers}")
+    if args.chunk_frames < 1:
+        raise CliError(f"--chunk-frames: chunk_frames must be a positive integer (frames per task); "
+                       f"got {args.chunk_frames}")
     if exr_dir is None:  # workers write EXR frames; the video is assembled from them
         exr_dir = video.with_name(video.stem + "_exr")
+        _check_output_dir(exr_dir, "-o/--output")
     stream = open_input(args)
-    a, b = parse_frames_option(args.frames)
-    from spikeref.pipeline import frame_range
-
     avail = frame_range(len(stream), params.window, params.K, params.L)
+    a, b = parse_frames_option(args.frames)
     frames = range(avail.start if a is None else a, avail.stop if b is None else b)
+    if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
+        raise CliError(f"--frames {frames.start}:{frames.stop} are outside this stream's frames "
+                       f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
+    if args.weights is not None:
+        _load_denoiser(args.weights, mode=params.mode)  # a bad weights file is refused here, not on every worker
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
                    "rate_hz": args.rate_hz}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"
     print(f"{stream.path.name}: frames {frames.start}:{frames.stop} in chunks of {args.chunk_frames} on {where}"
           f" → {exr_dir}", file=sys.stderr)
     t0 = time.perf_counter()
-    summaries = reconstruct_distributed(stream.path, exr_dir, params, open_kwargs=open_kwargs, weights=args.weights,
-                                        frames=frames, chunk_frames=args.chunk_frames, workers=args.workers,
-                                        scheduler=args.scheduler, resume=args.resume, half=args.half)
+    try:
+        summaries = reconstruct_distributed(stream.path, exr_dir, params, open_kwargs=open_kwargs,
+                                            weights=args.weights, frames=frames, chunk_frames=args.chunk_frames,
+                                            workers=args.workers, scheduler=args.scheduler, resume=args.resume,
+                                            half=args.half)
+    except (KeyboardInterrupt, OSError, ChunkError) as exc:  # frames already written stay: --resume goes on
+        raise _stopped(args, exc, exr_dir, frames, _frames_written(exr_dir, frames)) from exc
     wall = time.perf_counter() - t0
     made = sum(s["written"] for s in summaries)
     if summaries:
@@ -239,7 +488,10 @@ def _reconstruct_on_dask(args, params, video, exr_dir) -> int:
     else:
         print("every frame was already on disk (--resume)", file=sys.stderr)
     if video is not None:
-        assemble_video(exr_dir, frames, video, fps=args.fps)
+        try:
+            assemble_video(exr_dir, frames, video, fps=args.fps)
+        except (KeyboardInterrupt, OSError) as exc:
+            raise _stopped(args, exc, exr_dir, frames, _frames_written(exr_dir, frames)) from exc
         print(f"wrote {video}", file=sys.stderr)
     print(f"wrote {exr_dir}", file=sys.stderr)
     return 0
@@ -252,12 +504,10 @@ def _comma_list(text: str) -> list[str]:
 
 def cmd_bench(args) -> int:
     import datetime
-    import os
     import platform
     import time
 
     from spikeref.bench import BENCH_VERSION, bench_scenes, grid_settings, parse_grid, run_bench, write_report
-    from spikeref.denoise.denoiser import Denoiser
 
     if args.ladder:
         return _cmd_ladder(args)
@@ -272,9 +522,11 @@ def cmd_bench(args) -> int:
     settings = grid_settings(grid)
     if not settings:
         raise CliError("nothing to run: --methods leaves no method")
+    _check_seed(args.seed)
     out = args.out
-    _writable_dir(out, "--out")
-    den = Denoiser.load(args.weights) if any(s.method == "ours" for s in settings) else None
+    _check_output_dir(out, "--out")
+    den = _load_denoiser(args.weights) if any(s.method == "ours" for s in settings) else None
+    _writable_dir(out, "--out")  # the last check, and the first thing made: every argument is good
     print(f"bench v{BENCH_VERSION}: {len(settings)} settings × {len(scenes)} scenes, {grid.frames} scored frames "
           f"each → {out}", file=sys.stderr)
     t0 = time.perf_counter()
@@ -287,7 +539,8 @@ def cmd_bench(args) -> int:
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, {elapsed:.0f} s",
             "size": f"{first.height}×{first.width}", "frames": grid.frames,
             "denoiser": str(args.weights or "bundled default"), "sheet_scene": args.sheet_scene}
-    written = write_report(result, out, meta)
+    with _output_phase():
+        written = write_report(result, out, meta)
     print((out / "results.md").read_text(), file=sys.stdout)
     for path in written.values():
         print(f"wrote {path}", file=sys.stderr)
@@ -295,8 +548,6 @@ def cmd_bench(args) -> int:
 
 
 def _writable_dir(out: Path, option: str) -> None:
-    import os
-
     try:  # the output folder must be writable before minutes of work start
         out.mkdir(parents=True, exist_ok=True)
         probe = out / f".spikeref-bench-probe-{os.getpid()}"
@@ -310,13 +561,12 @@ def _cmd_ladder(args) -> int:
     """``spikeref bench --ladder``: the stage ladder (ladder.csv, ladder.md, ladder.png)."""
     import csv
     import datetime
-    import os
     import platform
     import time
 
     from spikeref.bench import BENCH_VERSION, bench_scenes
     from spikeref.bench.ladder import LadderSetting, ladder_markdown, plot_ladder, run_ladder
-    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.io.atomic import atomic_write
 
     for name in ("quick", "methods", "modes", "align", "flow_frames"):
         if getattr(args, name):
@@ -336,28 +586,34 @@ def _cmd_ladder(args) -> int:
         scenes = bench_scenes(tuple(args.scenes or ()))
     except ValueError as exc:
         raise CliError(f"--scenes: {exc}") from None
+    _check_seed(args.seed)
     out = args.out
-    _writable_dir(out, "--out")
-    den = Denoiser.load(args.weights)
+    _check_output_dir(out, "--out")
+    den = _load_denoiser(args.weights)
+    _writable_dir(out, "--out")  # the last check, and the first thing made: every argument is good
     print(f"bench v{BENCH_VERSION} ladder: {len(settings)} setting(s) × {len(scenes)} scenes, {frames} scored frames "
           f"each → {out}", file=sys.stderr)
     t0 = time.perf_counter()
     result = run_ladder(scenes, settings, seed=args.seed, denoiser=den, frames=frames,
                         progress=not args.no_progress)
     elapsed = time.perf_counter() - t0
-    with (out / "ladder.csv").open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(result["rows"][0]))
-        writer.writeheader()
-        writer.writerows(result["rows"])
     head = (f"# spikeref bench --ladder (bench v{BENCH_VERSION}, seed {args.seed}, "
             f"{datetime.datetime.now():%Y-%m-%d %H:%M}, {platform.processor() or platform.machine()}, "
             f"{os.cpu_count()} CPUs, {elapsed:.0f} s)\n\n")
     text = head + ladder_markdown(result)
-    (out / "ladder.md").write_text(text)
+    with _output_phase():
+        def write_csv(tmp):
+            with open(tmp, "w", newline="") as fh:
+                writer = csv.DictWriter(fh, fieldnames=list(result["rows"][0]))
+                writer.writeheader()
+                writer.writerows(result["rows"])
+
+        atomic_write(out / "ladder.csv", write_csv)
+        atomic_write(out / "ladder.md", lambda tmp: Path(tmp).write_text(text))
+        written = [out / "ladder.csv", out / "ladder.md"]
+        if plot_ladder(result, out / "ladder.png"):
+            written.append(out / "ladder.png")
     print(text)
-    written = [out / "ladder.csv", out / "ladder.md"]
-    if plot_ladder(result, out / "ladder.png"):
-        written.append(out / "ladder.png")
     for path in written:
         print(f"wrote {path}", file=sys.stderr)
     return 0
@@ -365,25 +621,50 @@ def _cmd_ladder(args) -> int:
 
 # -------------------------------------------------------------------------- train
 def cmd_train(args) -> int:
+    for flag, value in (("--channels", args.channels), ("--steps", args.steps), ("--batch", args.batch),
+                        ("--patch", args.patch), ("--window-min", args.window_min),
+                        ("--window-max", args.window_max), ("--checkpoint-every", args.checkpoint_every),
+                        ("--stop-after", args.stop_after)):
+        _check_int(value, flag)
+    if args.patch % 32:
+        raise CliError(f"--patch must be a multiple of 32 (the U-Net halves it 5 times); got {args.patch}")
+    if args.window_max < args.window_min:
+        raise CliError(f"--window-max ({args.window_max}) must be ≥ --window-min ({args.window_min})")
+    _check_float(args.lr, "--lr", positive=False)
+    _check_seed(args.seed)
+    _check_input_options(args)
+    _check_output_file(args.output, "-o/--output", (".npz",), "weights output")
+    checkpoint = args.checkpoint if args.checkpoint is not None else args.output.with_name(args.output.name + ".ckpt")
+    if checkpoint.is_dir():
+        raise CliError(f"--checkpoint {checkpoint}: is a folder, not a file")
+    _check_folder_can_exist(checkpoint.parent, "--checkpoint", checkpoint)
+    for path in args.data:
+        if not path.exists():
+            raise CliError(f"no such file: {path}")
     try:
         from spikeref.denoise.train import TrainConfig, train
     except ImportError as exc:
         raise CliError(f"training needs PyTorch: pip install 'spikeref[train]' ({exc})") from None
     from spikeref.io.dat import open_spike_file
 
-    streams = []
-    for path in args.data:
-        if not path.exists():
-            raise CliError(f"no such file: {path}")
-        streams.append(open_spike_file(path, height=args.height, width=args.width, file_width=args.file_width))
+    streams = [open_spike_file(path, height=args.height, width=args.width, file_width=args.file_width)
+               for path in args.data]
     cfg = TrainConfig(width=args.channels, steps=args.steps, batch=args.batch, patch=args.patch, lr=args.lr,
                       window_min=args.window_min, window_max=args.window_max,
                       input_domain=args.input_domain, checkpoint_every=args.checkpoint_every, seed=args.seed)
     describe = {"command": "spikeref train " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else "spikeref train",
                 "data": [{"file": Path(s.path).name, "planes": len(s), "height": s.height, "width": s.width}
                          for s in streams]}
-    summary = train(streams, args.output, cfg, checkpoint=args.checkpoint, resume=args.resume,
-                    device=args.device, describe=describe, stop_after=args.stop_after)
+    try:
+        with _output_phase():
+            for folder in {args.output.parent, checkpoint.parent}:
+                folder.mkdir(parents=True, exist_ok=True)
+            summary = train(streams, args.output, cfg, checkpoint=checkpoint, resume=args.resume,
+                            device=args.device, describe=describe, stop_after=args.stop_after)
+    except KeyboardInterrupt as exc:
+        state = f"the last checkpoint is {checkpoint}" if checkpoint.is_file() else "no checkpoint was written yet"
+        raise Interrupted(f"interrupted ({_signal_name(exc)}); {state}; continue with: "
+                          f"{_resume_command(args)}") from exc
     print(f"wrote {args.output}: {summary['steps']} steps in {summary['seconds']:.1f} s, "
           f"final loss {summary['final_loss']:.4g}")
     return 0
@@ -420,17 +701,29 @@ def cmd_simulate(args) -> int:
     from spikeref.simulate.recording import simulate_to_dat
     from spikeref.simulate.scenes import load_scene
 
+    if args.output.suffix.lower() != ".dat":
+        raise CliError(f"-o/--output must be a .dat file; got {args.output.name!r}")
+    _check_output_file(args.output, "-o/--output", (".dat",), "spike output")
+    if args.gt is not None:
+        if args.gt.suffix.lower() != ".npz":
+            raise CliError(f"--gt: ground truth goes to a .npz file; got {args.gt.name!r}")
+        _check_output_file(args.gt, "--gt", (".npz",), "ground truth")
+    _check_output_dir(args.gt_exr, "--gt-exr")
+    _check_int(args.planes, "--planes", 1, "a positive number of planes")
+    _check_int(args.gt_window, "--gt-window", 1, "a positive number of planes")
+    _check_int(args.chunk_planes, "--chunk-planes", 1, "a positive number of planes")
+    _check_seed(args.seed)
     scene = load_scene(args.scene)
     effects = parse_effects_option(args.effects)
     if effects is not None:
         effects = parse_effects(effects)
-    if args.output.parent and not args.output.parent.exists():
-        args.output.parent.mkdir(parents=True)
-    if args.gt is not None and args.gt.parent and not args.gt.parent.exists():
-        args.gt.parent.mkdir(parents=True)
-    meta = simulate_to_dat(scene, args.output, seed=args.seed, planes=args.planes, effects=effects,
-                           gt_path=args.gt, gt_window=args.gt_window, gt_exr_dir=args.gt_exr,
-                           chunk_planes=args.chunk_planes, progress=True)
+    with _output_phase():
+        for path in (args.output, args.gt):
+            if path is not None:
+                path.parent.mkdir(parents=True, exist_ok=True)
+        meta = simulate_to_dat(scene, args.output, seed=args.seed, planes=args.planes, effects=effects,
+                               gt_path=args.gt, gt_window=args.gt_window, gt_exr_dir=args.gt_exr,
+                               chunk_planes=args.chunk_planes, progress=True)
     dur_ms = meta["planes"] / meta["rate_hz"] * 1000
     listed = ", ".join(meta["effects"]) or "none (noise-free)"
     print(f"wrote {args.output}: {meta['planes']} planes ({dur_ms:.2f} ms) of {meta['height']}×{meta['width']}, "
@@ -451,21 +744,43 @@ def _int_list(text: str) -> tuple[int, ...]:
 
 
 def cmd_noise_check(args) -> int:
+    import importlib.util
+
     from spikeref.noise_check import noise_check, plot_noise_check
 
+    for w in args.windows:
+        _check_int(w, "--windows", 1, "a positive number of planes each")
+    _check_int(args.start, "--start", 0, "a plane index ≥ 0")
+    _check_int(args.planes, "--planes", 1, "a positive number of planes")
+    _check_float(args.min_rate, "--min-rate", positive=False)
+    if args.plot is not None:
+        if args.plot.suffix.lower() != ".png":
+            raise CliError(f"--plot must end in .png; got {args.plot.name!r}")
+        _check_output_file(args.plot, "--plot", (".png",), "plot")
+        if importlib.util.find_spec("matplotlib") is None:
+            raise CliError("--plot needs matplotlib: pip install 'spikeref[plot]'")
     stream = open_input(args)
     result = noise_check(stream, windows=args.windows, start=args.start, planes=args.planes,
                          min_rate=args.min_rate, progress=True)
     print(f"noise ratio I_c / E[I_c] - 1 of {stream.path or 'the input'} (Fig. 4a; the scene must be static)")
     print(result.table())
     if args.plot is not None:
-        plot_noise_check(result, args.plot)
+        with _output_phase():
+            args.plot.parent.mkdir(parents=True, exist_ok=True)
+            plot_noise_check(result, args.plot)
         print(f"plot: {args.plot}")
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose usage errors are one line (exit 2), like the commands' own errors."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="spikeref",
         description="Colour video from mosaicked chromatic spikes (Yang et al., ECCV 2024), on a CPU.",
     )
@@ -702,6 +1017,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="leave out pixels below this rate, spikes/readout (default: 20 spikes in the span)")
     p.add_argument("--plot", type=Path, default=None, help="also write the curve as a PNG (needs spikeref[plot])")
     p.set_defaults(func=cmd_noise_check)
+
+    debug_help = "on an error or an interruption, show the Python traceback (also: SPIKEREF_DEBUG=1)"
+    parser.add_argument("--debug", action="store_true", help=debug_help)
+    for p in sub.choices.values():  # also after the command; given or not, the top level's value stands
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=debug_help)
     return parser
 
 
@@ -712,20 +1032,45 @@ def _version() -> str:
 
 
 def main(argv=None) -> int:
+    """Run ``spikeref`` with ``argv`` (default ``sys.argv[1:]``); returns the exit status.
+
+    0: done. 1: the run started and an OS error stopped it (a full disk, an unwritable folder);
+    the frames already written are whole and ``--resume`` continues. 2: refused (a bad argument
+    or input), before anything was written. 130: interrupted by SIGINT (Ctrl-C) or SIGTERM.
+    Each failure is one line on stderr; ``--debug`` or ``SPIKEREF_DEBUG=1`` raises instead, with
+    the traceback. Bad usage exits through ``SystemExit(2)`` (argparse), also with one line.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "command", None):
         parser.print_help()
         return 2
+    args.argv = argv
+    debug = bool(getattr(args, "debug", False)) or os.environ.get("SPIKEREF_DEBUG", "").strip() not in ("", "0")
     from spikeref.distributed import ChunkError  # no Dask import: the module loads it when a cluster is made
 
     with warnings.catch_warnings():
         warnings.showwarning = _one_line_notes(args.command, warnings.showwarning)
         try:
-            return args.func(args)
+            with _sigterm_as_interrupt():
+                return args.func(args)
+        except Interrupted as exc:
+            if debug:
+                raise
+            print(f"spikeref {args.command}: {exc}", file=sys.stderr)
+            return exc.status
+        except KeyboardInterrupt as exc:
+            if debug:
+                raise
+            print(f"spikeref {args.command}: interrupted ({_signal_name(exc)}); files already written are whole",
+                  file=sys.stderr)
+            return Interrupted.status
         except (CliError, ChunkError, ValueError, TypeError, FileNotFoundError, OSError, ImportError) as exc:
+            if debug:
+                raise
             print(f"spikeref {args.command}: error: {exc}", file=sys.stderr)
-            return 2
+            return getattr(exc, "status", 2)
 
 
 def _one_line_notes(command: str, show):

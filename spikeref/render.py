@@ -85,6 +85,11 @@ class FrameSink:
         frames (99.5th percentile → 0.9 of white).
     half : bool
         float16 EXR instead of float32.
+
+    Every argument is checked before anything is made: a refused sink leaves no folder behind.
+    EXR frames are written atomically (a frame on disk is whole); the video is written to a
+    temporary file and renamed on :meth:`close` (:meth:`abort`, or an exception in a ``with``
+    block, removes it).
     """
 
     def __init__(self, video=None, exr_dir=None, fps: float = 30.0, exposure: Exposure | None = None,
@@ -92,14 +97,19 @@ class FrameSink:
         if video is None and exr_dir is None:
             raise ValueError("give a video path, an EXR folder, or both")
         self.exr_dir = Path(exr_dir) if exr_dir is not None else None
-        if self.exr_dir is not None:
-            if self.exr_dir.exists() and not self.exr_dir.is_dir():
-                raise NotADirectoryError(f"EXR output is not a folder: {self.exr_dir}")
-            self.exr_dir.mkdir(parents=True, exist_ok=True)
+        if self.exr_dir is not None and self.exr_dir.exists() and not self.exr_dir.is_dir():
+            raise NotADirectoryError(f"EXR output is not a folder: {self.exr_dir}")
         if video is not None:
             video = Path(video)
             if video.suffix.lower() not in (".mp4", ".gif"):
                 raise ValueError(f"video output must end in .mp4 or .gif; got {video.name!r}")
+            if isinstance(fps, bool) or not isinstance(fps, (int, float, np.integer, np.floating)) \
+                    or not np.isfinite(fps) or fps <= 0:
+                raise ValueError(f"fps must be positive; got {fps!r}")
+        # checked: now make the folders and open the video
+        if self.exr_dir is not None:
+            self.exr_dir.mkdir(parents=True, exist_ok=True)
+        if video is not None:
             video.parent.mkdir(parents=True, exist_ok=True)
         self._video = VideoWriter(video, fps) if video is not None else None
         self.exposure = exposure
@@ -159,6 +169,7 @@ def baseline_frames(stream, method: str, window: int = 10, every: int | None = N
 
     if method not in baselines.BASELINES:
         raise ValueError(f"unknown baseline {method!r}; choose one of {', '.join(baselines.BASELINES)}")
+    every = window if every is None else every  # 0 is a value (refused downstream), not "not given"
     finish = (lambda f: demosaic_bilinear(f, stream.cfa)) if stream.cfa else (lambda f: f)
     if method == "tfp":
         n_total = len(stream) // window
@@ -170,24 +181,31 @@ def baseline_frames(stream, method: str, window: int = 10, every: int | None = N
             for i in range(n):
                 yield first + i, frames[i]
         return
-    yield from baselines.streamed_baseline(stream, method, every or window, finish, chunk_frames)
+    yield from baselines.streamed_baseline(stream, method, every, finish, chunk_frames)
 
 
 def render_baseline(stream, method: str, video, exr_dir=None, window: int = 10, every: int | None = None,
                     fps: float = 30.0, half: bool = False, progress: bool = True) -> int:
-    """Run a baseline over ``stream`` and write ``video`` (+ EXR frames). Returns the frame count."""
+    """Run a baseline over ``stream`` and write ``video`` (+ EXR frames). Returns the frame count.
+
+    The arguments, and the first frame, are checked before any output is opened: a refused
+    call leaves nothing on disk.
+    """
+    import itertools
+
     from tqdm import tqdm
 
     if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
         raise ValueError(f"window must be a positive number of planes; got {window!r}")
-    step = every or window
-    if not isinstance(step, (int, np.integer)) or step < 1:
+    step = window if every is None else every
+    if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
         raise ValueError(f"every must be a positive number of planes; got {every!r}")
     total = len(stream) // window if method == "tfp" else None
-    with FrameSink(video, exr_dir, fps=fps, half=half) as sink:
-        bar = tqdm(total=total, desc=method.upper(), unit="frame", disable=not progress or None)
-        for index, frame in baseline_frames(stream, method, window, every):
+    frames = baseline_frames(stream, method, window, every)
+    first = next(frames, None)  # the generator's own checks run here, before any output exists
+    with FrameSink(video, exr_dir, fps=fps, half=half) as sink, \
+            tqdm(total=total, desc=method.upper(), unit="frame", disable=not progress or None) as bar:
+        for index, frame in itertools.chain([first] if first is not None else [], frames):
             sink.add(index, frame)
             bar.update(1)
-        bar.close()
     return sink.count
