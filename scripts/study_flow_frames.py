@@ -4,7 +4,7 @@ For each benchmark scene (``spikeref.bench``, seed 0, 4 scored frames) and four 
 the method (visible; W/K/L = 10/3/3, 10/5/2, 20/5/2, 20/3/3), the mean PSNR and seconds per
 frame with ``flow_frames="denoised"`` and with ``flow_frames="smoothed"`` at each σ of
 ``--sigmas`` (plane pixels; 0 = the raw luma).  This is how
-:data:`spikeref.pipeline.FLOW_SMOOTHING_SIGMA` was chosen (docs/results.md, session 11).
+:data:`spikeref.pipeline.FLOW_SMOOTHING_SIGMA` was chosen (docs/results.md, 2026-11-23).
 
     python scripts/study_flow_frames.py [--sigmas 0,0.7,1,1.5]
 """

@@ -15,7 +15,7 @@ first steps include cuDNN's autotuning: it over-estimates the step time about 3�
 The bundled files (2026-11-23, one H100, ``docs/results.md``):
 
     # b2u_w16.npz — counts (the default input domain), lr 1e-3, 2800-step schedule stopped
-    # after step 2200 (the GPU lease ended), exported from that checkpoint:
+    # after step 2200 (the GPU machine's time limit ended the run), exported from that checkpoint:
     spikeref train .train_data/train_*.dat -o b2u_w16.npz --channels 16 --steps 2800 \
         --lr 1e-3 --checkpoint-every 100 --stop-after 2200
     # b2u_w32.npz — rates, before counts became the default:

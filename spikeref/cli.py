@@ -227,27 +227,65 @@ def open_input(args):
 
 
 # ------------------------------------------------------------------------------ info
+#: ``spikeref info`` without ``--stats`` counts at most this many planes …
+INFO_SAMPLE_PLANES = 1000
+#: … and at most this many bytes of packed planes (so very large frames stay bounded too) …
+INFO_SAMPLE_BYTES = 128 << 20
+#: … in this many contiguous blocks spread evenly over the file.
+INFO_SAMPLE_BLOCKS = 20
+
+
+def _info_sample(t: int, plane_bytes: int) -> list[tuple[int, int]]:
+    """``(start, length)`` blocks of planes that ``spikeref info`` counts by default: all planes when the
+    file is within the budget, else ``INFO_SAMPLE_BLOCKS`` equal blocks evenly spread from the first plane
+    to the last (non-overlapping, at most ``INFO_SAMPLE_PLANES`` planes and ``INFO_SAMPLE_BYTES`` bytes)."""
+    budget = max(1, min(INFO_SAMPLE_PLANES, INFO_SAMPLE_BYTES // max(1, plane_bytes)))
+    if t <= budget:
+        return [(0, t)]
+    blocks = min(INFO_SAMPLE_BLOCKS, budget)
+    length = budget // blocks
+    starts = np.rint(np.linspace(0, t - length, blocks)).astype(np.int64)
+    return [(int(s), length) for s in starts]
+
+
 def cmd_info(args) -> int:
     from tqdm import tqdm
 
     from spikeref.accumulate import window_counts
     from spikeref.bayer import bayer_planes
+    from spikeref.io.dat import plane_nbytes
 
-    stream = open_input(args)
+    stream = open_input(args)  # a .dat is memory-mapped: nothing below reads spikes until the statistics
     t, h, w = stream.shape
+    plane_bytes = plane_nbytes(h, stream.file_width)
     print(f"file        {stream.path}")
+    if stream.path is not None and Path(stream.path).is_file():
+        print(f"file size   {Path(stream.path).stat().st_size} bytes")
     print(f"planes      {t}")
     stored = f" (stored rows {stream.file_width} wide)" if stream.file_width != w else ""
     print(f"size        {h} × {w} pixels{stored}")
+    print(f"plane size  {plane_bytes} bytes packed")
     print(f"cfa         {stream.cfa or 'mono'}")
     print(f"rate        {stream.rate_hz:g} planes/s")
     print(f"duration    {stream.duration_s * 1000:.3f} ms")
+    sys.stdout.flush()  # the layout shows at once, before any counting
     chunk = 2000
+    blocks = [(s, min(chunk, t - s)) for s in range(0, t, chunk)] if args.stats else _info_sample(t, plane_bytes)
+    counted = sum(n for _, n in blocks)
+    if counted == t:
+        print(f"statistics  over all {t} planes")
+    else:
+        b0, n0 = blocks[0]
+        bl, _ = blocks[-1]
+        print(f"statistics  over {counted} of {t} planes: {len(blocks)} blocks of {n0} planes evenly spread "
+              f"(planes {b0}–{b0 + n0 - 1}, …, {bl}–{bl + n0 - 1}); --stats counts them all")
     total = np.zeros((h, w), dtype=np.float64)
-    for start in tqdm(range(0, t, chunk), desc="counting", unit="chunk", disable=None, leave=False):
-        n = min(chunk, t - start)
-        total += window_counts(stream, n, start=start, count=1)[0]
-    rates = total / t
+    bar = tqdm(total=counted, desc="counting", unit="plane", disable=None if args.stats else True, leave=False)
+    with bar:
+        for start, n in blocks:
+            total += window_counts(stream, n, start=start, count=1)[0]
+            bar.update(n)
+    rates = total / counted
     print(f"mean rate   {rates.mean():.5f} spikes/readout over all pixels")
     if h % 2 == 0 and w % 2 == 0:
         names = list(stream.cfa) if stream.cfa else ["(0,0)", "(0,1)", "(1,0)", "(1,1)"]
@@ -789,8 +827,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("info", help="planes, size, duration and mean firing rate per Bayer plane",
                        description="Print what a spike file holds: planes, size, duration (at the readout "
-                                   "rate), and the mean firing rate (spikes per readout, 0…1) per Bayer plane.")
+                                   "rate), and the mean firing rate (spikes per readout, 0…1) per Bayer plane. "
+                                   "The layout comes from the file size alone; the rates from a bounded sample "
+                                   "of planes spread over the file, or from every plane with --stats.")
     _add_input_options(p, optional_file=True)
+    p.add_argument("--stats", action="store_true",
+                   help="count every plane (streamed, with a progress bar) instead of a sample of at most "
+                        f"{INFO_SAMPLE_PLANES} planes / {INFO_SAMPLE_BYTES >> 20} MiB spread over the file")
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("baseline", help="TFP / TFI / TFSTP reconstruction to MP4 (+ EXR frames)",

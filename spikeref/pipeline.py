@@ -95,7 +95,7 @@ DEFAULT_PREFER_CENTRE = 3.0
 WARPS = ("progressive", "composed")
 #: σ of the Gaussian of ``flow_frames="smoothed"``, in Bayer-plane pixels.  Chosen on the
 #: benchmark scenes among 0, 0.7, 1 and 1.5 (``scripts/study_flow_frames.py``, docs/results.md,
-#: session 11): 0.7 and 1 tie on the mean PSNR over W/K/L = 10/3/3, 10/5/2, 20/5/2, 20/3/3
+#: 2026-11-23): 0.7 and 1 tie on the mean PSNR over W/K/L = 10/3/3, 10/5/2, 20/5/2, 20/3/3
 #: (0.01 dB below the denoised flow frames), and 1 loses least at its worst setting (0.09 dB).
 FLOW_SMOOTHING_SIGMA = 1.0
 

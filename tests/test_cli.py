@@ -28,6 +28,55 @@ def test_info_reads_a_sidecar_and_reports_rates(tmp_path, capsys):
     assert "R: 1.00000" in out and "B: 0.00000" in out and "mean rate   0.25000" in out
 
 
+def _spy_on_plane_reads(monkeypatch, limit):
+    """Count the planes ``spikeref info`` reads through ``window_counts``; fail as soon as more than ``limit``."""
+    import spikeref.accumulate as accumulate
+
+    real, reads = accumulate.window_counts, []
+
+    def spy(stream, window, start=0, count=None, out=None):
+        n = window * (count if count is not None else (len(stream) - start) // window)
+        assert sum(r[1] for r in reads) + n <= limit, f"info read more than {limit} planes"
+        reads.append((start, n))
+        return real(stream, window, start=start, count=count, out=out)
+
+    monkeypatch.setattr(accumulate, "window_counts", spy)
+    return reads
+
+
+def test_info_on_a_25_gb_file_reads_only_a_bounded_sample(tmp_path, monkeypatch, capsys):
+    path = tmp_path / "huge.dat"
+    with open(path, "wb") as f:
+        f.truncate(25_000_000_000)  # sparse: 200 000 planes of 1000×1000 (125 000 bytes each), no disk used
+    (tmp_path / "huge.json").write_text(json.dumps({"height": 1000, "width": 1000, "cfa": "RGGB"}))
+    reads = _spy_on_plane_reads(monkeypatch, limit=1000)
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "planes      200000" in out and "1000 × 1000" in out and "plane size  125000 bytes" in out
+    assert "duration    10000.000 ms" in out and "RGGB" in out and "mean rate   0.00000" in out
+    assert "statistics  over 1000 of 200000 planes" in out and "--stats" in out
+    assert 0 < sum(n for _, n in reads) <= 1000
+    starts = [s for s, _ in reads]
+    assert min(starts) == 0 and max(s + n for s, n in reads) == 200000  # spread from the first plane to the last
+
+
+def test_info_sample_and_stats_agree_on_a_uniform_file(tmp_path, monkeypatch, capsys):
+    spikes = np.zeros((5000, 4, 8), np.uint8)
+    spikes[:, 0::2, 0::2] = 1  # every R pixel fires at every readout
+    spikes[::2, 1::2, 1::2] = 1  # every B pixel at every other readout (the sample blocks are 50 planes)
+    write_dat(tmp_path / "u.dat", spikes)
+    (tmp_path / "u.json").write_text(json.dumps({"height": 4, "width": 8, "cfa": "RGGB"}))
+    reads = _spy_on_plane_reads(monkeypatch, limit=1000)
+    assert main(["info", str(tmp_path / "u.dat")]) == 0
+    sampled = capsys.readouterr().out
+    assert "statistics  over 1000 of 5000 planes" in sampled and "R: 1.00000" in sampled and "B: 0.50000" in sampled
+    reads.clear()
+    monkeypatch.undo()
+    assert main(["info", str(tmp_path / "u.dat"), "--stats"]) == 0
+    full = capsys.readouterr().out
+    assert "statistics  over all 5000 planes" in full and "R: 1.00000" in full and "B: 0.50000" in full
+
+
 def test_baseline_tfp_writes_video_and_exr(tmp_path):
     assert main(["baseline", "tfp", "-o", str(tmp_path / "v.mp4"), "--exr-dir", str(tmp_path / "exr"), "-W", "20"]) == 0
     assert (tmp_path / "v.mp4").stat().st_size > 1000

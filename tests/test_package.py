@@ -108,3 +108,42 @@ def test_the_test_extra_brings_the_light_extras():
             assert requirement in extras["test"], f"the test extra lacks {requirement!r} of the {extra} extra"
     names = {re.match(r"[A-Za-z0-9_.-]+", r).group().lower() for r in extras["test"]}
     assert "torch" not in names
+
+
+#: Where the docs and comments must speak of the product, not of the sittings that built it
+#: (issue 24, item 6): the same paths and pattern as
+#: ``grep -rniE "session [0-9]|this session|lent to|the lease" docs spikeref scripts examples README.md``.
+HISTORY_PATHS = ("docs", "spikeref", "scripts", "examples", "README.md")
+HISTORY_WORDS = r"session [0-9]|this session|lent to|the lease"
+
+
+def _text_files(root, names):
+    from pathlib import Path
+
+    for name in names:
+        path = Path(root) / name
+        for f in sorted([path] if path.is_file() else path.rglob("*")):
+            if not f.is_file() or "__pycache__" in f.parts:
+                continue
+            data = f.read_bytes()
+            if b"\0" in data:  # binary, as grep -I skips it
+                continue
+            try:
+                yield f, data.decode("utf-8")
+            except UnicodeDecodeError:
+                continue
+
+
+def test_docs_and_comments_keep_no_diary():
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    pattern = re.compile(HISTORY_WORDS, re.IGNORECASE)
+    hits = [
+        f"{f.relative_to(root)}:{n}: {line.strip()[:100]}"
+        for f, text in _text_files(root, HISTORY_PATHS)
+        for n, line in enumerate(text.splitlines(), 1)
+        if pattern.search(line)
+    ]
+    assert hits == [], "docs speak of their history (give the date, machine and command instead):\n" + "\n".join(hits)
