@@ -571,11 +571,11 @@ def cmd_bench(args) -> int:
     result = run_bench(grid, seed=args.seed, denoiser=den, progress=not args.no_progress,
                        sheet_scene=args.sheet_scene)
     elapsed = time.perf_counter() - t0
-    first = scenes[0].scene.content
+    sizes = " / ".join(dict.fromkeys(f"{s.scene.height}×{s.scene.width}" for s in scenes))
     meta = {"bench_version": BENCH_VERSION, "grid": "quick grid" if args.quick else "full grid",
             "when": datetime.datetime.now().strftime("%Y-%m-%d %H:%M"),
             "machine": f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs, {elapsed:.0f} s",
-            "size": f"{first.height}×{first.width}", "frames": grid.frames,
+            "size": sizes, "frames": grid.frames,
             "denoiser": str(args.weights or "bundled default"), "sheet_scene": args.sheet_scene}
     with _output_phase():
         written = write_report(result, out, meta)
