@@ -86,6 +86,17 @@ def _check_even(shape: tuple[int, ...], name: str) -> None:
         )
 
 
+def _check_mosaic(mosaic) -> tuple[np.ndarray, type]:
+    """A demosaic's input as an array with even sides, and its output dtype (float64 stays, else float32)."""
+    mosaic = np.asarray(mosaic)
+    _check_even(mosaic.shape, "mosaic")
+    if mosaic.dtype == np.float64:
+        return mosaic, np.float64
+    if mosaic.dtype == np.float32 or np.issubdtype(mosaic.dtype, np.integer) or mosaic.dtype == bool:
+        return mosaic, np.float32
+    raise TypeError(f"mosaic must be float32, float64 or integer; got {mosaic.dtype}")
+
+
 def bayer_planes(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     """Split a mosaic into its four Bayer planes (§4.1, Fig. 3a).
 
@@ -179,14 +190,7 @@ def demosaic_bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     :func:`spikeref.oracles.demosaic_bilinear_oracle`.
     """
     channels = np.asarray(cfa_channels(cfa), dtype=np.int64)
-    mosaic = np.asarray(mosaic)
-    _check_even(mosaic.shape, "mosaic")
-    if mosaic.dtype == np.float64:
-        dtype = np.float64
-    elif mosaic.dtype == np.float32 or np.issubdtype(mosaic.dtype, np.integer) or mosaic.dtype == bool:
-        dtype = np.float32
-    else:
-        raise TypeError(f"mosaic must be float32, float64 or integer; got {mosaic.dtype}")
+    mosaic, dtype = _check_mosaic(mosaic)
     lead = mosaic.shape[:-2]
     h, w = mosaic.shape[-2:]
     flat = np.ascontiguousarray(mosaic.reshape((-1, h, w)), dtype=dtype)

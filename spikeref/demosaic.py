@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spikeref.bayer import _check_even, cfa_channel_map, validate_cfa
+from spikeref.bayer import _check_mosaic, cfa_channel_map, validate_cfa
 
 __all__ = ["DEMOSAICS", "MHC_KERNELS", "demosaic_mhc", "demosaic"]
 
@@ -66,14 +66,7 @@ def demosaic_mhc(mosaic, cfa: str = "RGGB") -> np.ndarray:
     ndarray ``(..., H, W, 3)``, float32 (float64 for float64 input), ≥ 0.
     """
     pattern = validate_cfa(cfa)
-    arr = np.asarray(mosaic)
-    _check_even(arr.shape, "mosaic")
-    if arr.dtype == np.float64:
-        dtype = np.float64
-    elif arr.dtype == np.float32 or np.issubdtype(arr.dtype, np.integer) or arr.dtype == bool:
-        dtype = np.float32
-    else:
-        raise TypeError(f"mosaic must be float32, float64 or integer; got {arr.dtype}")
+    arr, dtype = _check_mosaic(mosaic)
     h, w = arr.shape[-2:]
     chan = cfa_channel_map(h, w, pattern)
     rows = [set(pattern[0:2]), set(pattern[2:4])]  # the colours each row parity holds
