@@ -147,3 +147,45 @@ def test_docs_and_comments_keep_no_diary():
         if pattern.search(line)
     ]
     assert hits == [], "docs speak of their history (give the date, machine and command instead):\n" + "\n".join(hits)
+
+
+@pytest.mark.slow
+def test_readme_commands_in_a_fresh_virtualenv_leave_a_working_cli(tmp_path):
+    """The README's two commands, in order, in a new virtualenv, then the CLI from another folder.
+
+    The virtualenv sees this interpreter's packages (``--system-site-packages``), so nothing is
+    downloaded: command 1 installs the package itself (``pip install .``, no build isolation, no
+    dependencies), runs the main job on the embedded sample, and command 2 reinstalls it editable.
+    Afterwards ``spikeref --version``, ``info`` and ``reconstruct`` must run from an unrelated folder
+    (the issue: Numba's cache written into the installed package once shadowed the checkout).
+    """
+    import os
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    venv = tmp_path / "venv"
+    # without its own pip: the venv uses this interpreter's pip and setuptools (an old bundled setuptools
+    # cannot build a wheel without the wheel package)
+    subprocess.run([sys.executable, "-m", "venv", "--system-site-packages", "--without-pip", str(venv)], check=True)
+    bin_dir = venv / ("Scripts" if os.name == "nt" else "bin")
+    env = dict(os.environ, XDG_CACHE_HOME=str(tmp_path / "cache"), PYTHONPATH="")
+    pip = [str(bin_dir / "python"), "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation"]
+
+    def run(args, cwd):
+        out = subprocess.run(args, cwd=cwd, env=env, capture_output=True, text=True, timeout=600)
+        assert out.returncode == 0, (args, out.stdout[-2000:], out.stderr[-2000:])
+        return out
+
+    work = tmp_path / "work"
+    work.mkdir()
+    run(pip + [str(root)], cwd=work)  # command 1: pip install . …
+    run([str(bin_dir / "spikeref"), "reconstruct", "--frames", "3:4", "-o", "first.mp4", "--exr-dir", "exr"], work)
+    assert (work / "first.mp4").stat().st_size > 0
+    run(pip + ["-e", str(root)], cwd=work)  # command 2: pip install -e ".[test]" (the extras are already here)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    version = run([str(bin_dir / "spikeref"), "--version"], elsewhere)
+    assert sr.__version__ in version.stdout + version.stderr
+    run([str(bin_dir / "spikeref"), "info"], elsewhere)
+    run([str(bin_dir / "spikeref"), "reconstruct", "--frames", "3:4", "-o", "again.mp4", "--exr-dir", "exr"], elsewhere)
+    assert (elsewhere / "again.mp4").stat().st_size > 0

@@ -57,7 +57,7 @@ def _expm2(g: np.ndarray) -> np.ndarray:
     """Exact exponential of a real 2×2 matrix (closed form through its eigenvalues)."""
     tr = 0.5 * (g[0, 0] + g[1, 1])
     b = g - tr * np.eye(2)  # trace-free part: b @ b = -det(b) * I
-    delta = -float(np.linalg.det(b))
+    delta = -float(b[0, 0] * b[1, 1] - b[0, 1] * b[1, 0])  # −det(b), written out (no LAPACK for a 2×2)
     if delta > 0:
         s = math.sqrt(delta)
         m = math.cosh(s) * np.eye(2) + (math.sinh(s) / s) * b
