@@ -50,10 +50,12 @@ def _config(name):
         return ReconstructParams.paper(), Denoiser(net, guard="off")
     if name == "paper-smoothed":
         return ReconstructParams.paper(flow_frames="smoothed"), Denoiser(net, guard="off")
+    if name == "chained":  # the speed option: only the step-0 flows, composed
+        return ReconstructParams(warp="chained"), Denoiser(net)
     return ReconstructParams(), Denoiser(net)  # the defaults: composed warp, smoothed flow frames, z = 3, guard
 
 
-@pytest.mark.parametrize("config", ["paper", "paper-smoothed", "defaults"])
+@pytest.mark.parametrize("config", ["paper", "paper-smoothed", "defaults", "chained"])
 @pytest.mark.parametrize("size, n_frames", [((250, 400), 12), ((1000, 1000), 3)])
 def test_pipeline_fps(benchmark, report, size, n_frames, config):
     params, den = _config(config)

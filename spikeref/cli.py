@@ -915,9 +915,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="what each step's flow is estimated on: smoothed (default; a Gaussian of σ = 1 "
                         "Bayer-plane pixel on the raw frames, one denoiser pass per frame, not in the paper) or "
                         "denoised (the paper, Fig. 3b: L+1 denoiser passes per frame)")
-    p.add_argument("--warp", choices=["composed", "progressive"], default=None,
+    p.add_argument("--warp", choices=["composed", "progressive", "chained"], default=None,
                    help="how the output is warped: composed (default; the step flows composed, each spike window "
-                        "resampled once with a cubic, not in the paper) or progressive (Eq. 14-15 step by step)")
+                        "resampled once with a cubic, not in the paper), progressive (Eq. 14-15 step by step) or "
+                        "chained (only the step-0 flows composed: no frame or flow of later steps, faster, same "
+                        "accuracy on the benchmark; not in the paper)")
     p.add_argument("--demosaic", choices=["bilinear", "mhc"], default=None,
                    help="the output frame's demosaic: bilinear (default; the paper's Ψ, Eq. 13) or mhc "
                         "(Malvar-He-Cutler 5x5 filters: sharper on photographs, not in the paper; docs/results.md)")

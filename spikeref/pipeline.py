@@ -37,7 +37,8 @@ Beyond the paper (the defaults of :class:`ReconstructParams`, each measured on t
   Fig. 3(b).
 * ``warp="composed"`` makes ``I_L`` from the spike windows with the step flows composed along
   every path (:mod:`spikeref.compose`): one cubic resample per window instead of ``L``
-  bilinear ones.  ``"progressive"`` is Eq. 14–15.
+  bilinear ones.  ``"progressive"`` is Eq. 14–15; ``"chained"`` (a speed option) composes only
+  the step-0 flows, so the frames and flows of steps ``1 … L−1`` are never made.
 * ``AlignParams.prefer_centre > 0`` (3 by default here; ``AlignParams()`` alone keeps the plain
   HDR+ search) turns on the noise-aware search of :mod:`spikeref.align`; the pipeline tells it
   the noise of ``I_l``, measured on the 2×2 luma of the frames before denoising (variance map
@@ -92,7 +93,7 @@ FLOW_FRAMES = ("denoised", "smoothed")
 #: (``scripts/study_align_real.py``, docs/results.md).
 DEFAULT_PREFER_CENTRE = 3.0
 #: How the output frame is made from the step flows (:class:`ReconstructParams`).
-WARPS = ("progressive", "composed")
+WARPS = ("progressive", "composed", "chained")
 #: σ of the Gaussian of ``flow_frames="smoothed"``, in Bayer-plane pixels.  Chosen on the
 #: benchmark scenes among 0, 0.7, 1 and 1.5 (``scripts/study_flow_frames.py``, docs/results.md,
 #: 2026-11-23): 0.7 and 1 tie on the mean PSNR over W/K/L = 10/3/3, 10/5/2, 20/5/2, 20/3/3
@@ -131,7 +132,9 @@ class ReconstructParams:
         (default) — the same flows composed along every path through the steps, so each spike
         window is resampled once, with a cubic (:mod:`spikeref.compose`; not in the paper).
         The frames of steps ``< L`` (what the flows are estimated on) are made progressively
-        either way.
+        either way.  ``"chained"`` (a speed option, not in the paper) composes only the step-0
+        flows ``F_0(j, j+i)`` along the same paths — every step estimates the displacement
+        between the same windows — so no frame or flow of a step ``≥ 1`` is made at all.
     flow_frames : {"smoothed", "denoised"}
         What each step's flow is estimated on: the luma of the denoised frames ``D(I_l)`` (the
         paper's Fig. 3(b): ``L + 1`` denoiser passes per output frame) or a Gaussian-smoothed
@@ -376,6 +379,7 @@ class _State:
         self.keep_flows = keep_flows
         # level l: {k: [I_l(k) planes, D(I_l(k)) planes or None, luma or None, F_{l-1}(k, ·) if kept]}
         self.levels: list[dict] = [dict() for _ in range(self.p.L + 1)]
+        self.step0: dict[int, np.ndarray] = {}  # F_0(k, ·) of warp="chained"
         self.counts: dict[int, np.ndarray] = {}
 
     # step 0 -------------------------------------------------------------
@@ -469,6 +473,9 @@ class _State:
         if level == 0:
             return self.window_counts(k).astype(np.float32) / np.float32(p.window), None
         neighbours = range(k - hh, k + hh + 1)
+        if level == p.L and p.warp == "chained" and p.align and hh:
+            # the steps' own flows are not needed (only kept for keep_steps, which asks for them)
+            return self._composed(k, None), (self.flows(level - 1, k) if self.keep_flows else None)
         fl = self.flows(level - 1, k)
         if level == p.L and p.warp == "composed" and p.align and hh:
             return self._composed(k, fl), fl
@@ -480,24 +487,35 @@ class _State:
         with self.timed("warp"):
             return warp_average(frames, fl), fl
 
-    def _composed(self, k: int, top: np.ndarray) -> np.ndarray:
+    def step0_flows(self, k: int) -> np.ndarray:
+        """``F_0(k, k+i)``, ``i = −h … h``, computed once per window (``warp="chained"``)."""
+        if k not in self.step0:
+            self.step0[k] = self.flows(0, k)
+        return self.step0[k]
+
+    def _composed(self, k: int, top: np.ndarray | None) -> np.ndarray:
         """``I_L(k)`` with the step flows composed along every path (:mod:`spikeref.compose`).
 
         ``top`` are the flows ``F_{L−1}(k, ·)``; the lower steps' flows ``F_m(j, ·)`` are those
-        that made ``I_{m+1}(j)``, kept in the rings.
+        that made ``I_{m+1}(j)``, kept in the rings.  With ``warp="chained"`` every hop uses the
+        step-0 flow of the window it starts from (:meth:`step0_flows`) and ``top`` is not used.
         """
         from spikeref.compose import composed_warp, path_table
 
         p, hh, L = self.p, self.p.half, self.p.L
+        chained = p.warp == "chained"
         bank, index, hops, targets = [], {}, [], []
         first = k - L * hh
         for path in path_table(p.K, L):
             kk, row = k, []
             for m, i in zip(range(L - 1, -1, -1), path, strict=True):
                 if i:
-                    key = (m, kk, i)
+                    key = (0 if chained else m, kk, i)
                     if key not in index:
-                        flows = top if m == L - 1 else self.levels[m + 1][kk][3]
+                        if chained:
+                            flows = self.step0_flows(kk)
+                        else:
+                            flows = top if m == L - 1 else self.levels[m + 1][kk][3]
                         index[key] = len(bank)
                         bank.append(flows[i + hh])
                     row.append(index[key])
@@ -545,6 +563,8 @@ class _State:
         low0 = next_k - L * hh
         for key in [key for key in self.counts if key < low0]:
             del self.counts[key]
+        for key in [key for key in self.step0 if key < next_k - (L - 1) * hh]:
+            del self.step0[key]
 
 
 def _fit_align_size(h: int, w: int, p: ReconstructParams) -> ReconstructParams:

@@ -92,7 +92,7 @@ def test_zero_flow_is_weighted_accumulation_over_the_support(sample):
 
 
 @pytest.mark.parametrize("flow_frames, warp", [("denoised", "progressive"), ("smoothed", "progressive"),
-                                               ("denoised", "composed")])
+                                               ("denoised", "composed"), ("smoothed", "chained")])
 def test_chunks_equal_the_full_run(sample, flow_frames, warp):
     params = ReconstructParams(window=10, K=3, L=2, flow_frames=flow_frames, warp=warp)
     full = {f.index: f.rgb for f in Reconstructor(sample, params, denoiser=identity).frames()}
@@ -102,7 +102,7 @@ def test_chunks_equal_the_full_run(sample, flow_frames, warp):
     assert sorted(full) == list(range(2, 24))
 
 
-@pytest.mark.parametrize("warp", ["progressive", "composed"])
+@pytest.mark.parametrize("warp", ["progressive", "composed", "chained"])
 def test_reads_only_the_support_and_rings_stay_bounded(sample, monkeypatch, warp):
     seen = []
     real = acc_mod.window_counts
@@ -122,6 +122,9 @@ def test_reads_only_the_support_and_rings_stay_bounded(sample, monkeypatch, warp
         state.evict(k + 1)
         for level, ring in enumerate(state.levels):
             assert len(ring) <= 2 * (params.L - level) * params.half + 1
+            if warp == "chained" and 0 < level < params.L:
+                assert not ring  # no frame of the steps between is made
+        assert len(state.step0) <= 2 * (params.L - 1) * params.half + 1
     assert sorted(seen) == list(range(10 - 3, 14 + 3))  # each window read once, only the support of 10:14
 
 
@@ -231,7 +234,7 @@ def test_mono_stream_gives_mono_frames():
     (dict(L=-1), "L must be an integer ≥ 0"),
     (dict(mode="fast"), "mode must be one of"),
     (dict(flow_frames="raw"), "flow_frames must be one of denoised, smoothed; got 'raw'"),
-    (dict(warp="twice"), "warp must be one of progressive, composed; got 'twice'"),
+    (dict(warp="twice"), "warp must be one of progressive, composed, chained; got 'twice'"),
 ])
 def test_bad_params(kwargs, match):
     with pytest.raises(ValueError, match=match):

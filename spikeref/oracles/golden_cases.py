@@ -371,6 +371,29 @@ def _pipeline_composed_oracle(i):
     return {k: v.astype(np.float32) for k, v in out.items()}
 
 
+def _pipeline_chained_fast(i):
+    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.denoise.unet import UNet
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+    from spikeref.stream import SpikeStream
+
+    c = _PIPELINE
+    params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
+                               flow_frames="denoised", warp="chained")
+    net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
+    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net, guard="sure"))
+    return {"rgb": np.stack([f.rgb for f in rec.frames(c["frames"][0], c["frames"][-1] + 1)])}
+
+
+def _pipeline_chained_oracle(i):
+    from spikeref.oracles.pipeline import reconstruct_oracle
+
+    c = _PIPELINE
+    out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], _unet_params(i),
+                             _pipeline_align_params(), c["frames"], keep_steps=False, warp="chained", guard="sure")
+    return {"rgb": out["rgb"].astype(np.float32)}
+
+
 def _inputs_flow_luma():
     """Four 9×13 Bayer planes of random rates (float32): small enough that σ = 1.5 mirrors twice."""
     return {"planes": np.random.default_rng(15).random((4, 9, 13)).astype(np.float32)}
@@ -656,6 +679,21 @@ CASES: list[GoldenCase] = [
         params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible",
                 "input_domain": "count", "warp": "composed", "interpolant": "Catmull-Rom (Keys a = -1/2)",
                 "guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05,
+                "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
+        jit_disabled_check=False,
+    ),
+    GoldenCase(
+        "pipeline_frames_chained",
+        "Eq. 13–15 with warp=\"chained\" and the SURE guard (a speed option, not in the paper)",
+        "spikeref.pipeline.Reconstructor (ReconstructParams(warp=\"chained\"), Denoiser(guard=\"sure\"))",
+        "spikeref.oracles.pipeline.reconstruct_oracle (warp=\"chained\", guard=\"sure\")",
+        "The inputs and settings of pipeline_frames_composed_guard, with every hop of the 27 paths moved by the "
+        "step-0 flow F_0(j, j+i) of the window reached (no frame or flow of steps 1…L−1): R_L (rgb) of frames 3 "
+        "and 4. The oracle computes in float64; its outputs are stored as float32.",
+        _inputs_pipeline, _pipeline_chained_oracle, _pipeline_chained_fast,
+        rtol=1e-4, atol=1e-5,
+        params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible",
+                "input_domain": "count", "warp": "chained", "flow_frames": "denoised", "guard": "sure",
                 "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
         jit_disabled_check=False,
     ),

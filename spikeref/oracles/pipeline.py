@@ -31,6 +31,8 @@ Options beyond the paper (defaults of :class:`spikeref.pipeline.ReconstructParam
 * ``warp="composed"``: ``I_L(k)`` by :func:`composed_warp_oracle` over the ``K^L`` paths
   ``(i_L, …, i_1)`` — hop ``m`` (from step ``L−1`` down to 0) moves by ``F_m(j, j+i)`` of the
   frame ``j`` reached — from the spike counts of the windows the paths end in.
+* ``warp="chained"``: the same, but every hop moves by the step-0 flow ``F_0(j, j+i)`` of the
+  frame reached; no frame of a step ``1 … L−1`` is needed.
 * ``guard="sure"``: the output's ``D_L`` is ``I + α (f(I) − I)`` with the SURE ``α`` of
   :func:`sure_alpha_oracle`: σ of each plane by :func:`noise_sigma_oracle` (keep 0.75), at least
   :func:`quantisation_variance_oracle` of ``f(I)`` per pixel, the probe ``b`` the ±1 array of
@@ -130,7 +132,7 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
     keep_steps : bool
         Also return every ``R_l`` (``steps``); without it ``D`` runs only for the outputs when
         ``flow_frames="smoothed"``.
-    warp : {"progressive", "composed"}
+    warp : {"progressive", "composed", "chained"}
         How ``I_L`` is made (module docstring).
     guard : {"off", "sure"}
         The guard on the output's ``D_L`` (module docstring); ``"off"`` applies the shrinkage.
@@ -154,7 +156,7 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
                 planes_memo[key] = bayer_planes_oracle(accumulate_oracle(spikes, window, start=j * window)[0])
             else:
                 flows = np.stack([F_l(level - 1, j, j + i) for i in range(-h, h + 1)])
-                if level == L and warp == "composed" and h:
+                if level == L and warp in ("composed", "chained") and h:
                     planes_memo[key] = composed_I_L(j)
                 elif level == 1:
                     sp = np.stack([p for i in range(-h, h + 1) for p in window_planes(j + i)])
@@ -172,10 +174,11 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
             jj, row = j, []
             for m, i in zip(range(L - 1, -1, -1), path, strict=True):
                 if i:
-                    if (m, jj, i) not in index:
-                        index[(m, jj, i)] = len(bank)
-                        bank.append(F_l(m, jj, jj + i))
-                    row.append(index[(m, jj, i)])
+                    step = 0 if warp == "chained" else m
+                    if (step, jj, i) not in index:
+                        index[(step, jj, i)] = len(bank)
+                        bank.append(F_l(step, jj, jj + i))
+                    row.append(index[(step, jj, i)])
                 else:
                     row.append(-1)
                 jj += i
