@@ -109,6 +109,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from spikeref._jit import njit, prange
+from spikeref.noise_level import immerkaer_response
 
 __all__ = [
     "PYRAMID_KERNEL",
@@ -573,14 +574,6 @@ def _level_noise_factors(levels: int) -> list[tuple[float, float]]:
     return out
 
 
-def _abs_laplacian(img: np.ndarray) -> np.ndarray:
-    """``|img ⊛ [[1, −2, 1], [−2, 4, −2], [1, −2, 1]]|`` over the interior, float64 (Immerkær's kernel)."""
-    img = img.astype(np.float64)
-    c = img[1:-1, 1:-1]
-    return np.abs(4.0 * c - 2.0 * (img[:-2, 1:-1] + img[2:, 1:-1] + img[1:-1, :-2] + img[1:-1, 2:])
-                  + img[:-2, :-2] + img[:-2, 2:] + img[2:, :-2] + img[2:, 2:])
-
-
 def estimate_noise(image) -> float:
     """Variance of white noise in ``image`` (Immerkær 1996, "Fast noise variance estimation").
 
@@ -602,7 +595,7 @@ def estimate_noise(image) -> float:
     img = _as_image(image, "image")
     if min(img.shape) < 3:
         raise ValueError(f"image must be at least 3×3 to estimate its noise; got {img.shape}")
-    return float((np.sqrt(0.5 * np.pi) * np.mean(_abs_laplacian(img)) / 6.0) ** 2)
+    return float((np.sqrt(0.5 * np.pi) * np.mean(immerkaer_response(img)) / 6.0) ** 2)
 
 
 def estimate_noise_correlation(reference, alternate) -> float:
@@ -653,7 +646,7 @@ def local_noise(image, box: int = LOCAL_NOISE_BOX) -> np.ndarray:
         raise ValueError(f"image must be at least 3×3 to estimate its noise; got {img.shape}")
     if not _is_int(box) or box < 1 or box % 2 == 0:
         raise ValueError(f"box must be an odd integer ≥ 1; got {box!r}")
-    lap = np.pad(_abs_laplacian(img), 1, mode="edge")
+    lap = np.pad(immerkaer_response(img), 1, mode="edge")
     m = uniform_filter(lap, size=int(box), mode="nearest")
     return (np.sqrt(0.5 * np.pi) * m / 6.0) ** 2
 

@@ -77,7 +77,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from spikeref.align import AlignParams, align, luma
-from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
+from spikeref.bayer import bayer_mosaic, bayer_planes
 from spikeref.stream import SpikeStream
 from spikeref.warp import warp_average, warp_spike_windows
 
@@ -377,7 +377,8 @@ class _State:
         self.p = rec.params
         self.stream = rec.stream
         self.keep_flows = keep_flows
-        # level l: {k: [I_l(k) planes, D(I_l(k)) planes or None, luma or None, F_{l-1}(k, ·) if kept]}
+        # level l: {k: [I_l(k) planes, D(I_l(k)) planes or None, luma or None, F_{l-1}(k, ·) if kept,
+        #               (raw luma, its local noise) of the noise-aware search or None]}
         self.levels: list[dict] = [dict() for _ in range(self.p.L + 1)]
         self.step0: dict[int, np.ndarray] = {}  # F_0(k, ·) of warp="chained"
         self.counts: dict[int, np.ndarray] = {}
@@ -399,7 +400,7 @@ class _State:
         if k not in ring:
             planes, flows = self._compute(level, k)
             keep = self.keep_flows or (self.p.warp == "composed" and level < self.p.L)
-            ring[k] = [planes, None, None, flows if keep else None]
+            ring[k] = [planes, None, None, flows if keep else None, None]
         return ring[k][0]
 
     def denoised(self, level: int, k: int) -> np.ndarray:
@@ -460,12 +461,23 @@ class _State:
         smoothed flow image hides its residual error from a high-pass estimate, and the
         anti-correlation of adjacent windows' counts is a property of the raw spikes.
         """
-        from spikeref.align import estimate_noise_correlation, local_noise
+        from spikeref.align import estimate_noise_correlation
 
-        r_raw, a_raw = luma(self.planes(level, k)), luma(self.planes(level, j))
-        noise = 0.5 * (local_noise(r_raw) + local_noise(a_raw))
-        return align(ref, alt, step=level, params=self.p.align_params, noise=noise,
+        (r_raw, r_noise), (a_raw, a_noise) = self.raw_noise(level, k), self.raw_noise(level, j)
+        return align(ref, alt, step=level, params=self.p.align_params, noise=0.5 * (r_noise + a_noise),
                      correlation=estimate_noise_correlation(r_raw, a_raw))
+
+    def raw_noise(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """The 2×2 luma of ``I_l(k)`` before denoising and its local noise map, made once per frame
+        (each frame is aligned against up to ``2h`` others, as reference and as alternate)."""
+        from spikeref.align import local_noise
+
+        self.planes(level, k)
+        entry = self.levels[level][k]
+        if entry[4] is None:
+            raw = luma(entry[0])
+            entry[4] = (raw, local_noise(raw))
+        return entry[4]
 
     def _compute(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray | None]:
         """``I_l(k)`` and the flows ``F_{l−1}(k, ·)`` that made it."""
@@ -534,11 +546,9 @@ class _State:
             mosaic = bayer_mosaic(planes, self.stream.cfa or "RGGB")
             if not self.stream.cfa:
                 return mosaic
-            if self.p.demosaic == "bilinear":
-                return demosaic_bilinear(mosaic, self.stream.cfa)
-            from spikeref.demosaic import demosaic_mhc
+            from spikeref.demosaic import demosaic
 
-            return demosaic_mhc(mosaic, self.stream.cfa)
+            return demosaic(mosaic, self.stream.cfa, self.p.demosaic)
 
     def output(self, k: int, keep_steps: bool) -> ReconstructedFrame:
         L = self.p.L

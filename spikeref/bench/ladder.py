@@ -149,7 +149,7 @@ def _epe(est: np.ndarray, true: np.ndarray, visible: np.ndarray) -> float:
     return float(err[vis].mean()) if vis.any() else float("nan")
 
 
-def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, peers: dict, rungs,
+def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list, denoiser, peers: dict, rungs,
                       overrides: dict) -> tuple:
     """Frames of every rung at the centres, seconds per frame of the single-window ones, and EPE per step."""
     from spikeref.accumulate import window_counts
@@ -172,7 +172,9 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, 
     secs = {r: [] for r in rungs}
     epe: dict[int, list] = {}
     weights = binomial_weights(K, L)
-    for k, t in zip(ks, centres, strict=True):
+    # a content without a motion model (the fan, a user's video) has no true-flow rungs
+    has_motion = sc.scene.content.true_flow(0.0, 0.0, np.zeros((1, 2))) is not None
+    for k, truth in zip(ks, refs, strict=True):
         first = k - reach
         counts = window_counts(view, w, start=first * w, count=2 * reach + 1).astype(np.float32)
         planes = bayer_planes(counts, cfa)  # (n, 4, h, w)
@@ -191,8 +193,7 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, 
         if "tfp_support" in rungs:
             out["tfp_support"].append(psi(planes.sum(axis=0) / np.float32(w * len(planes))))
         if "true_flow" in rungs or "true_flow_d" in rungs:
-            f, _ = plane_flow(sc.scene.content, t, t)
-            if f is None:
+            if not has_motion:
                 for r in ("true_flow", "true_flow_d"):
                     if r in rungs:
                         out[r].append(None)
@@ -203,7 +204,6 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], denoiser, 
                 if "true_flow_d" in rungs:
                     out["true_flow_d"].append(psi(denoiser(tf, "visible", window=exposure_planes(w, K, L))))
         if "limit" in rungs or "limit_mhc" in rungs:
-            truth = sc.reference(t)  # (H, W, 3)
             from spikeref.bayer import cfa_channel_map
             from spikeref.demosaic import demosaic_mhc
 
@@ -319,7 +319,8 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
             refs = [sc.reference(t) for t in centres]
             for setting in settings:
                 bar.set_postfix_str(f"{sc.key}: {setting.name}")
-                out, secs, epe = _frames_for_scene(sc, setting, centres, denoiser, peer_fns, rungs, dict(params or {}))
+                out, secs, epe = _frames_for_scene(sc, setting, centres, refs, denoiser, peer_fns, rungs,
+                                                   dict(params or {}))
                 for r in rungs:
                     imgs = out[r]
                     if not imgs or any(i is None for i in imgs):

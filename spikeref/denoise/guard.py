@@ -54,6 +54,7 @@ from __future__ import annotations
 import numpy as np
 
 from spikeref.denoise.blindspot import _check_image
+from spikeref.noise_level import immerkaer_response
 
 __all__ = ["GUARDS", "DEFAULT_RADIUS", "PROBE_SEED", "NOISE_KEEP", "noise_sigma", "quantisation_variance",
            "rademacher_probe", "probe_step", "sure_alpha",
@@ -71,10 +72,6 @@ NOISE_KEEP = 0.75
 PROBE_FRACTION = 0.05
 
 
-def _planes(a, name: str) -> np.ndarray:
-    return _check_image(a, name)  # (..., h, w), floating point, finite
-
-
 def _truncated_halfnormal_mean(q: float) -> float:
     """Mean of ``|Z|``, ``Z ~ N(0, 1)``, over its smallest fraction ``q``: ``√(2/π)(1 − e^{−u²/2})/q``."""
     from scipy.special import ndtri
@@ -86,12 +83,13 @@ def _truncated_halfnormal_mean(q: float) -> float:
 def noise_sigma(planes, keep: float = None) -> np.ndarray:
     """Noise σ of each plane, estimated from the plane alone (after Immerkær 1996).
 
-    The plane is filtered by the 3×3 kernel ``[[1, −2, 1], [−2, 4, −2], [1, −2, 1]]`` (the
-    difference of two Laplacians: it cancels any locally linear signal and turns white noise of
-    σ into noise of ``6σ``).  Edges and texture still leave large responses, so only the
-    smallest fraction ``keep`` of the absolute responses over the interior is averaged, and the
-    mean is divided by ``6 ·`` the mean of a standard half-normal truncated at the same fraction
-    (:func:`_truncated_halfnormal_mean`; for white Gaussian noise the estimate is unbiased).
+    The plane is filtered by the 3×3 kernel ``[[1, −2, 1], [−2, 4, −2], [1, −2, 1]]``
+    (:func:`spikeref.noise_level.immerkaer_response`: it cancels any locally linear signal and
+    turns white noise of σ into noise of ``6σ``).  Edges and texture still leave large responses,
+    so only the smallest fraction ``keep`` of the absolute responses over the interior is
+    averaged, and the mean is divided by ``6 ·`` the mean of a standard half-normal truncated at
+    the same fraction (:func:`_truncated_halfnormal_mean`; for white Gaussian noise the estimate
+    is unbiased).
     A mean of absolute values, not a median, because spike rates are quantised (multiples of
     ``1/W``): the median of quantised responses is often exactly 0.
 
@@ -111,14 +109,11 @@ def noise_sigma(planes, keep: float = None) -> np.ndarray:
     keep = NOISE_KEEP if keep is None else keep
     if isinstance(keep, bool) or not isinstance(keep, (int, float, np.integer, np.floating)) or not 0 < keep <= 1:
         raise ValueError(f"keep must be a fraction in (0, 1]; got {keep!r}")
-    arr = _planes(planes, "planes").astype(np.float64)
+    arr = _check_image(planes, "planes").astype(np.float64)
     lead = arr.shape[:-2]
     if arr.shape[-2] < 3 or arr.shape[-1] < 3:
         return np.zeros(lead)
-    c = arr[..., 1:-1, 1:-1]
-    n = arr[..., :-2, 1:-1] + arr[..., 2:, 1:-1] + arr[..., 1:-1, :-2] + arr[..., 1:-1, 2:]
-    d = arr[..., :-2, :-2] + arr[..., :-2, 2:] + arr[..., 2:, :-2] + arr[..., 2:, 2:]
-    response = np.sort(np.abs(4.0 * c - 2.0 * n + d).reshape(lead + (-1,)), axis=-1)
+    response = np.sort(immerkaer_response(arr).reshape(lead + (-1,)), axis=-1)
     count = max(1, int(round(response.shape[-1] * keep)))
     return response[..., :count].mean(axis=-1) / (6.0 * _truncated_halfnormal_mean(float(keep)))
 
@@ -161,9 +156,9 @@ def sure_alpha(noisy, denoised, probed, probe, eps, sigma, radius: int = DEFAULT
     -------
     ndarray ``(..., h, w)`` float64 in ``[0, 1]``.
     """
-    y = _planes(noisy, "noisy").astype(np.float64)
-    f = _planes(denoised, "denoised").astype(np.float64)
-    fb = _planes(probed, "probed").astype(np.float64)
+    y = _check_image(noisy, "noisy").astype(np.float64)
+    f = _check_image(denoised, "denoised").astype(np.float64)
+    fb = _check_image(probed, "probed").astype(np.float64)
     b = np.asarray(probe, dtype=np.float64)
     for name, arr in (("denoised", f), ("probed", fb), ("probe", b)):
         if arr.shape != y.shape:
@@ -223,7 +218,7 @@ def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
     blended : ndarray float32, ``noisy``'s shape
     alpha : ndarray float64, the weight of ``f(y)`` per pixel
     """
-    y = _planes(noisy, "noisy").astype(np.float32)
+    y = _check_image(noisy, "noisy").astype(np.float32)
     sig = noise_sigma(y) if sigma is None else np.broadcast_to(np.asarray(sigma, dtype=np.float64), y.shape[:-2])
     if np.any(~np.isfinite(sig)) or np.any(sig < 0):
         raise ValueError(f"sigma must be finite and ≥ 0; got {sigma!r}")

@@ -9,6 +9,7 @@ files.  Inputs are small and built from fixed seeds.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Callable
 
 import numpy as np
@@ -342,56 +343,25 @@ def _pipeline_oracle(i):
     return {k: v.astype(np.float32) for k, v in out.items()}  # stored as float32: the file stays small
 
 
-def _pipeline_smoothed_fast(i):
-    out = _pipeline_fast(i, flow_frames="smoothed")  # keep_steps there: the flows come with the steps
-    return {"rgb": out["rgb"], "flows": out["flows"]}
+def _pipeline_variant_fast(i, outputs, **kw):
+    """``outputs`` of :func:`_pipeline_fast` for a variant (flow frames, warp, guard)."""
+    out = _pipeline_fast(i, **kw)  # keep_steps there: the flows come with the steps
+    return {k: out[k] for k in outputs}
 
 
-def _pipeline_smoothed_oracle(i):
+def _pipeline_variant_oracle(i, outputs, **kw):
+    """``outputs`` of :func:`reconstruct_oracle` for a variant, without the earlier steps, as float32."""
     from spikeref.oracles.pipeline import reconstruct_oracle
 
     c = _PIPELINE
     out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], _unet_params(i),
-                             _pipeline_align_params(), c["frames"], flow_frames="smoothed", flow_sigma=1.0,
-                             keep_steps=False)
-    return {k: v.astype(np.float32) for k, v in out.items()}
+                             _pipeline_align_params(), c["frames"], keep_steps=False, **kw)
+    return {k: out[k].astype(np.float32) for k in outputs}
 
 
-def _pipeline_composed_fast(i):
-    out = _pipeline_fast(i, warp="composed", guard="sure")
-    return {"rgb": out["rgb"], "flows": out["flows"]}
-
-
-def _pipeline_composed_oracle(i):
-    from spikeref.oracles.pipeline import reconstruct_oracle
-
-    c = _PIPELINE
-    out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], _unet_params(i),
-                             _pipeline_align_params(), c["frames"], keep_steps=False, warp="composed", guard="sure")
-    return {k: v.astype(np.float32) for k, v in out.items()}
-
-
-def _pipeline_chained_fast(i):
-    from spikeref.denoise.denoiser import Denoiser
-    from spikeref.denoise.unet import UNet
-    from spikeref.pipeline import ReconstructParams, Reconstructor
-    from spikeref.stream import SpikeStream
-
-    c = _PIPELINE
-    params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
-                               flow_frames="denoised", warp="chained")
-    net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
-    rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net, guard="sure"))
-    return {"rgb": np.stack([f.rgb for f in rec.frames(c["frames"][0], c["frames"][-1] + 1)])}
-
-
-def _pipeline_chained_oracle(i):
-    from spikeref.oracles.pipeline import reconstruct_oracle
-
-    c = _PIPELINE
-    out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], _unet_params(i),
-                             _pipeline_align_params(), c["frames"], keep_steps=False, warp="chained", guard="sure")
-    return {"rgb": out["rgb"].astype(np.float32)}
+_SMOOTHED = {"outputs": ("rgb", "flows"), "flow_frames": "smoothed"}
+_COMPOSED = {"outputs": ("rgb", "flows"), "warp": "composed", "guard": "sure"}
+_CHAINED = {"outputs": ("rgb",), "warp": "chained", "guard": "sure"}
 
 
 def _inputs_flow_luma():
@@ -655,7 +625,7 @@ CASES: list[GoldenCase] = [
         "The inputs and settings of pipeline_frames, with each step's flow estimated on flow_luma(I_l) (σ = 1 "
         "plane pixel) instead of the luma of D(I_l): R_L (rgb) and the flows F_l(k, k+i) of frames 3 and 4. "
         "The oracle computes in float64; its outputs are stored as float32.",
-        _inputs_pipeline, _pipeline_smoothed_oracle, _pipeline_smoothed_fast,
+        _inputs_pipeline, partial(_pipeline_variant_oracle, **_SMOOTHED), partial(_pipeline_variant_fast, **_SMOOTHED),
         rtol=1e-4, atol=1e-5,
         params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible", "shrink": True,
                 "input_domain": "count", "flow_frames": "smoothed", "flow_sigma": 1.0,
@@ -674,7 +644,7 @@ CASES: list[GoldenCase] = [
         "default_rng(0), ε = 0.05 × the plane's root mean variance, a 17×17 box); frames of steps < L and "
         "their flows as in pipeline_frames. Outputs: R_L (rgb) and the flows of frames 3 and 4. The oracle "
         "computes in float64; its outputs are stored as float32.",
-        _inputs_pipeline, _pipeline_composed_oracle, _pipeline_composed_fast,
+        _inputs_pipeline, partial(_pipeline_variant_oracle, **_COMPOSED), partial(_pipeline_variant_fast, **_COMPOSED),
         rtol=1e-4, atol=1e-5,
         params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible",
                 "input_domain": "count", "warp": "composed", "interpolant": "Catmull-Rom (Keys a = -1/2)",
@@ -690,7 +660,7 @@ CASES: list[GoldenCase] = [
         "The inputs and settings of pipeline_frames_composed_guard, with every hop of the 27 paths moved by the "
         "step-0 flow F_0(j, j+i) of the window reached (no frame or flow of steps 1…L−1): R_L (rgb) of frames 3 "
         "and 4. The oracle computes in float64; its outputs are stored as float32.",
-        _inputs_pipeline, _pipeline_chained_oracle, _pipeline_chained_fast,
+        _inputs_pipeline, partial(_pipeline_variant_oracle, **_CHAINED), partial(_pipeline_variant_fast, **_CHAINED),
         rtol=1e-4, atol=1e-5,
         params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible",
                 "input_domain": "count", "warp": "chained", "flow_frames": "denoised", "guard": "sure",

@@ -175,6 +175,12 @@ def _view_points(h: int, w: int) -> np.ndarray:
     return np.stack([xx, yy], axis=-1).astype(np.float64)
 
 
+def _in_view(points: np.ndarray, h: int, w: int) -> np.ndarray:
+    """Whether ``(x, y)`` positions ``(..., 2)`` lie on an ``h × w`` view (pixel centres at integers)."""
+    x, y = points[..., 0], points[..., 1]
+    return (x >= -0.5) & (x <= w - 0.5) & (y >= -0.5) & (y <= h - 0.5)
+
+
 def _coverage(signed_distance):
     """Anti-aliased coverage of a shape from its signed distance (pixels, < 0 inside): a 1-pixel ramp."""
     return np.clip(0.5 - signed_distance, 0.0, 1.0)
@@ -419,9 +425,7 @@ class TranslatingTexture(SceneContent):
         d = np.asarray(self.velocity) * (float(t_other) - float(t_ref)) / self.rate_hz
         flow = np.broadcast_to(d, pts.shape).copy()
         target = pts + flow
-        visible = ((target[..., 0] >= -0.5) & (target[..., 0] <= self.width - 0.5)
-                   & (target[..., 1] >= -0.5) & (target[..., 1] <= self.height - 0.5))
-        return flow, visible
+        return flow, _in_view(target, self.height, self.width)
 
     @cached_property
     def texture(self) -> np.ndarray:
@@ -950,9 +954,7 @@ class ImageMotion(SceneContent):
         else:
             visible = np.ones(pts.shape[:-1], dtype=bool)
         target = pts + flow
-        visible &= (target[..., 0] >= -0.5) & (target[..., 0] <= self.width - 0.5)
-        visible &= (target[..., 1] >= -0.5) & (target[..., 1] <= self.height - 0.5)
-        return flow, visible
+        return flow, visible & _in_view(target, self.height, self.width)
 
 
 
