@@ -119,3 +119,27 @@ def test_a_huge_file_opens_without_being_read(tmp_path):
     assert stream.window(31990, 10).sum() == 0
     grown_mib = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before) / 1024
     assert grown_mib < 200
+
+
+@pytest.mark.parametrize("name", ["height", "width", "file_width", "rate_hz"])
+@pytest.mark.parametrize("value", [0, -1, True])
+def test_open_spike_file_refuses_zero_and_none_means_not_given(tmp_path, rng, name, value):
+    # 0 is a value, never "not given": refused with the argument's name, for .dat and .npy alike.
+    from spikeref.io.dat import open_spike_file
+
+    spikes = (rng.random((6, 4, 8)) < 0.3).astype(np.uint8)
+    for suffix in (".dat", ".npy"):
+        path = save_spikes(tmp_path / f"s{suffix}", spikes)
+        with pytest.raises(ValueError, match=name):
+            open_spike_file(path, **{name: value})
+    if name in ("height", "width"):
+        with pytest.raises(ValueError, match=name):
+            load_spikes(tmp_path / "s.dat", **{name: value})
+    # None: the sidecar's value, else the default.
+    (tmp_path / "s.json").write_text('{"height": 4, "width": 8, "rate_hz": 1000.0}')
+    stream = open_spike_file(tmp_path / "s.dat", height=None, width=None, file_width=None, rate_hz=None)
+    assert stream.shape == (6, 4, 8) and stream.rate_hz == 1000.0
+    np.testing.assert_array_equal(stream.window(0, 6), spikes)
+    (tmp_path / "s.json").unlink()
+    with pytest.raises(ValueError, match="250"):  # no sidecar: the 250×400 default, which this file is not
+        open_spike_file(tmp_path / "s.dat")

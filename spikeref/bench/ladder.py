@@ -404,7 +404,7 @@ def plot_ladder(result: dict, path, setting: str | None = None) -> bool:
         import matplotlib.pyplot as plt
     except ImportError:
         return False
-    setting = setting or result["settings"][0]
+    setting = result["settings"][0] if setting is None else setting
     rungs = result["rungs"]
     scenes, grid = _table(result, setting, "psnr")
     fig, ax = plt.subplots(figsize=(12, 5.2))

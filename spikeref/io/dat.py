@@ -242,20 +242,45 @@ def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
     return Path(path)
 
 
+def _optional_count(name: str, value):
+    """``value`` if it is a whole number ≥ 1, None if it is None (not given); else a ValueError naming ``name``.
+
+    0 is a value, never "not given": it is refused, not replaced by a default.
+    """
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name} must be a whole number ≥ 1, or None for the default; got {value!r}")
+    return int(value)
+
+
+def _optional_rate(name: str, value):
+    """``value`` if it is a finite number > 0, None if it is None (not given); else a ValueError naming ``name``."""
+    if value is None:
+        return None
+    if (isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating))
+            or not np.isfinite(value) or value <= 0):
+        raise ValueError(f"{name} must be a positive number of planes per second, or None for the default; "
+                         f"got {value!r}")
+    return float(value)
+
+
 def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, **kw):
     """Open a spike file by its suffix: ``.dat`` (memory-mapped), ``.npy`` or ``.npz``.
 
     ``.npy`` holds a ``(T, H, W)`` array; ``.npz`` a key ``spikes`` (or a
-    single array).  For ``.dat`` the size must be given (defaults 250×400).
+    single array).  For ``.dat`` the size must be given; ``None`` (not given) means the
+    default 250×400, and 0 is refused (ValueError naming the argument).
     """
     from spikeref.stream import SpikeStream
 
     path = Path(path)
     suffix = path.suffix.lower()
+    height, width = _optional_count("height", height), _optional_count("width", width)
     if not path.is_file():
         raise FileNotFoundError(f"no such spike file: {path}")
     if suffix == ".dat":
-        return read_dat(path, height or 250, width or 400, cfa, **kw)
+        return read_dat(path, 250 if height is None else height, 400 if width is None else width, cfa, **kw)
     if suffix == ".npy":
         arr = np.load(path, mmap_mode="r")
     elif suffix == ".npz":
@@ -293,17 +318,37 @@ def open_spike_file(path, height: int | None = None, width: int | None = None, c
 
     Arguments override the sidecar; without either, ``.dat`` defaults to 250×400 mono at
     20 kHz.  ``cfa="mono"`` means no colour filter.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.dat``, ``.npy`` or ``.npz`` spike file.
+    height, width, file_width : int or None
+        Image size and stored row width in pixels (``.dat`` only); ``None`` means not given
+        (the sidecar's value, else 250×400 and ``file_width = width``).
+    cfa : str or None
+        Bayer pattern (``"RGGB"`` …) or ``"mono"``; ``None`` means not given.
+    rate_hz : float or None
+        Readout rate, planes per second; ``None`` means not given (the sidecar's, else 20 000).
+
+    Raises
+    ------
+    ValueError
+        A size of 0 or less, a non-integer size or a rate that is not a positive number: 0 is a
+        value, never "not given"; the message names the argument.
     """
     path = Path(path)
+    height, width = _optional_count("height", height), _optional_count("width", width)
+    file_width, rate_hz = _optional_count("file_width", file_width), _optional_rate("rate_hz", rate_hz)
     meta = read_sidecar(path) if path.suffix.lower() == ".dat" else {}
     cfa = cfa if cfa is not None else meta.get("cfa")
     if isinstance(cfa, str) and cfa.lower() == "mono":
         cfa = None
-    kw = {"rate_hz": rate_hz or meta.get("rate_hz", 20000.0)}
+    kw = {"rate_hz": rate_hz if rate_hz is not None else meta.get("rate_hz", 20000.0)}
     if path.suffix.lower() == ".dat":
-        kw["file_width"] = file_width or meta.get("file_width")
-        return load_spikes(path, height=height or meta.get("height", 250), width=width or meta.get("width", 400),
-                           cfa=cfa, **kw)
+        kw["file_width"] = file_width if file_width is not None else meta.get("file_width")
+        return load_spikes(path, height=height if height is not None else meta.get("height", 250),
+                           width=width if width is not None else meta.get("width", 400), cfa=cfa, **kw)
     return load_spikes(path, cfa=cfa, **kw)
 
 
