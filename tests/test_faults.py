@@ -221,6 +221,15 @@ BAD = [
     ("noise-check: --plot not .png", lambda d: ["noise-check", "--plot", "fig.jpg"], "--plot must end in .png"),
     ("noise-check: --plot under a file", lambda d: ["noise-check", "--plot", S(_file(d) / "fig.png")],
      "is not a folder"),
+    # ---- golden
+    ("golden: unknown action", lambda d: ["golden", "verify", "x"], "invalid choice: 'verify'"),
+    ("golden: check a missing folder", lambda d: ["golden", "check", S(d / "nope")], "no such folder"),
+    ("golden: check an unknown case", lambda d: ["golden", "check", S(d), "--cases", "tfi,nope"],
+     "unknown case nope"),
+    ("golden: --golden without a manifest", lambda d: ["golden", "list", "--golden", S(d)], "no manifest.json there"),
+    ("golden: export --format csv", lambda d: ["golden", "export", "x", "--format", "csv"], "invalid choice: 'csv'"),
+    ("golden: export into a file", lambda d: ["golden", "export", S(_file(d))], "is not a folder"),
+    ("golden: export under a file", lambda d: ["golden", "export", S(_file(d) / "x")], "is not a folder"),
 ]
 
 
