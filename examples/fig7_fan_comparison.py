@@ -5,7 +5,8 @@ noise), reconstructs one frame with the progressive warping (W = 10, K = 3, L = 
 denoiser) and writes, into ``--out`` (default ``out/examples``):
 
 * ``fig7_fan.png`` — TFP(W=10), TFP(W=100), TFI, TFSTP, ours and the ground truth, side by
-  side, all through one exposure, with PSNR/SSIM against the ground truth printed;
+  side, all through one exposure, with PSNR/SSIM against the ground truth printed
+  (:mod:`spikeref.metrics`, the truth's peak as the data range, as ``spikeref bench``);
 * ``fig5_steps.png`` — the progressive steps ``R_0 … R_L`` of the same frame (Fig. 5).
 
 Every image is taken at the same instant: the centre of window ``k`` (planes ``[kW, (k+1)W)``).
@@ -25,24 +26,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def psnr(ref, est):
-    mse = float(np.mean((est - ref) ** 2))
-    return 10 * np.log10(float(ref.max()) ** 2 / mse)
-
-
-def ssim(ref, est):
-    try:
-        from skimage.metrics import structural_similarity
-    except ImportError:  # the 'test' extra brings scikit-image
-        return float("nan")
-    return float(structural_similarity(ref, est, channel_axis=-1, data_range=float(ref.max()),
-                                       gaussian_weights=True, sigma=1.5, use_sample_covariance=False))
-
-
 def main() -> None:
     import imageio.v3 as iio
 
     from spikeref.baselines import tfi, tfstp
+    from spikeref.metrics import psnr, ssim
     from spikeref.bayer import demosaic_bilinear
     from spikeref.accumulate import accumulate
     from spikeref.pipeline import ReconstructParams, Reconstructor
@@ -78,9 +66,10 @@ def main() -> None:
     }
     gt = images["ground truth"]
     exposure = choose_exposure(gt[None])
+    peak = float(gt.max())  # scored as spikeref bench does: linear RGB, the truth's peak as the data range
     for name, img in images.items():
         if name != "ground truth":
-            print(f"{name:>14}: PSNR {psnr(gt, img):6.2f} dB  SSIM {ssim(gt, img):.3f}")
+            print(f"{name:>14}: PSNR {psnr(gt, img, peak):6.2f} dB  SSIM {ssim(gt, img, peak):.3f}")
 
     def strip(imgs, titles, path):
         tiles = [tonemap(np.clip(im, 0, None), exposure) for im in imgs]

@@ -22,15 +22,10 @@ STARTS = (300, 420)
 
 
 def score(truth: np.ndarray, image: np.ndarray) -> float:
-    from spikeref.metrics import psnr
+    from spikeref.metrics import psnr_after_gain
 
-    ref = truth[BORDER:-BORDER, BORDER:-BORDER].astype(np.float64)
-    est = np.asarray(image, np.float64)[BORDER:-BORDER, BORDER:-BORDER].copy()
-    for c in range(3):
-        den = float((est[..., c] ** 2).sum())
-        if den > 0:
-            est[..., c] *= float((ref[..., c] * est[..., c]).sum()) / den
-    return psnr(ref, est, float(truth.max()))
+    crop = (slice(BORDER, -BORDER), slice(BORDER, -BORDER))
+    return psnr_after_gain(truth[crop], np.asarray(image)[crop], float(truth.max()), per_channel=True)
 
 
 def main() -> None:

@@ -81,12 +81,10 @@ def load_real():
 
 def score_real(truth: np.ndarray, image: np.ndarray) -> float:
     """PSNR against the pseudo truth after a least-squares gain, border left out."""
-    from spikeref.metrics import psnr
+    from spikeref.metrics import psnr_after_gain
 
-    ref = truth[BORDER:-BORDER, BORDER:-BORDER]
-    est = np.asarray(image, dtype=np.float64)[BORDER:-BORDER, BORDER:-BORDER]
-    gain = float(np.sum(ref * est) / np.sum(est * est))
-    return psnr(ref, gain * est, float(truth.max()))
+    crop = (slice(BORDER, -BORDER), slice(BORDER, -BORDER))
+    return psnr_after_gain(truth[crop], np.asarray(image)[crop], float(truth.max()))
 
 
 def run_real(stream, truth, kw: dict, denoiser, keep_flows: bool = False):

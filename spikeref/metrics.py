@@ -3,7 +3,9 @@
 The paper scores its frames with PSNR, SSIM and, for HDR, metrics on perceptually
 uniform values (its Table 1 and §5).  These are the ones that run offline on a CPU:
 
-* :func:`psnr` — ``10 log10(R² / MSE)`` with an explicit ``data_range`` ``R``.
+* :func:`psnr` — ``10 log10(R² / MSE)`` with an explicit ``data_range`` ``R``;
+  :func:`psnr_after_gain` the same after the least-squares exposure (or per-channel) gain, for a
+  reference known only up to its scale.
 * :func:`ssim` — Wang, Bovik, Sheikh & Simoncelli, "Image quality assessment: from error
   visibility to structural similarity", IEEE TIP 13(4), 2004: an 11-tap Gaussian window
   with σ = 1.5, ``K1 = 0.01``, ``K2 = 0.03``, population (biased) variances and covariance,
@@ -38,6 +40,7 @@ __all__ = [
     "SSIM_TAPS",
     "PU21_BANDING_GLARE",
     "psnr",
+    "psnr_after_gain",
     "ssim",
     "luminance",
     "pu21_encode",
@@ -118,6 +121,40 @@ def psnr(reference, estimate, data_range) -> float:
     r = _data_range(data_range)
     mse = float(np.mean((ref - est) ** 2))
     return float("inf") if mse == 0.0 else float(10.0 * np.log10(r * r / mse))
+
+
+def psnr_after_gain(reference, estimate, data_range, per_channel: bool = False) -> float:
+    """PSNR of ``g · estimate`` with the least-squares gain ``g = Σ ref·est / Σ est²`` (:func:`psnr`).
+
+    For a reference known only up to its exposure — the mean of a long window of a real
+    recording, a camera of unknown ``M_c`` (Eq. 4) — the brightness scale is fitted first, so the
+    score measures noise and structure, not exposure.
+
+    Parameters
+    ----------
+    reference, estimate : array ``(H, W)`` or ``(H, W, C)``
+        Same shape, finite.
+    data_range : float
+        ``R`` of :func:`psnr`, in the reference's units.
+    per_channel : bool
+        One gain per channel of an ``(H, W, C)`` image (a white balance as well as an exposure)
+        instead of one for the whole image.
+
+    Returns
+    -------
+    float
+        dB.  Where the estimate is 0 (a channel of it, with ``per_channel``) its gain is 1.
+    """
+    ref, est = _pair(reference, estimate)
+    r = _data_range(data_range)
+    if not isinstance(per_channel, (bool, np.bool_)):
+        raise TypeError(f"per_channel must be True or False; got {per_channel!r}")
+    if per_channel and est.ndim != 3:
+        raise ValueError(f"per_channel needs (H, W, C) images; got shape {est.shape}")
+    axes = (0, 1) if per_channel else None
+    energy = np.sum(est * est, axis=axes)
+    gain = np.where(energy > 0, np.sum(ref * est, axis=axes) / np.where(energy > 0, energy, 1.0), 1.0)
+    return psnr(ref, est * gain, r)
 
 
 # ---------------------------------------------------------------------------- SSIM

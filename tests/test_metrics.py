@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from spikeref.metrics import luminance, psnr, pu21_encode, pu21_psnr, pu21_ssim, ssim
+from spikeref.metrics import luminance, psnr, psnr_after_gain, pu21_encode, pu21_psnr, pu21_ssim, ssim
 from spikeref.oracles.metrics import psnr_oracle, pu21_oracle, ssim_oracle
 
 skm = pytest.importorskip("skimage.metrics")
@@ -41,6 +41,32 @@ def test_psnr_equals_scikit_image_and_a_hand_value():
     a, b = rng.random((9, 7, 3)), rng.random((9, 7, 3))
     assert psnr(a, b, 2.0) == pytest.approx(skm.peak_signal_noise_ratio(a, b, data_range=2.0), rel=1e-12)
     assert psnr(a, a, 1.0) == float("inf")
+
+
+def test_psnr_after_gain_fits_the_exposure_then_scores(rng):
+    ref = rng.random((12, 10, 3))
+    est = 0.5 * ref + 0.01 * rng.standard_normal(ref.shape)  # half the exposure, a little noise
+    g = float((ref * est).sum() / (est * est).sum())
+    assert psnr_after_gain(ref, est, 1.0) == pytest.approx(psnr(ref, g * est, 1.0), rel=1e-12)
+    assert psnr_after_gain(ref, est, 1.0) > psnr(ref, est, 1.0) + 5
+    assert psnr_after_gain(ref, 3.0 * ref, 1.0) > 250  # the exposure alone: exact up to rounding
+    # one gain per channel: a white balance as well
+    tinted = ref * np.array([0.5, 1.0, 2.0])
+    assert psnr_after_gain(ref, tinted, 1.0, per_channel=True) > 250
+    assert psnr_after_gain(ref, tinted, 1.0) < 40
+    gains = (ref * est).sum(axis=(0, 1)) / (est * est).sum(axis=(0, 1))
+    assert psnr_after_gain(ref, est, 1.0, per_channel=True) == pytest.approx(psnr(ref, est * gains, 1.0), rel=1e-12)
+    # a zero estimate (or channel) keeps gain 1
+    zero = est.copy()
+    zero[..., 1] = 0.0
+    assert np.isfinite(psnr_after_gain(ref, zero, 1.0, per_channel=True))
+    assert psnr_after_gain(ref, np.zeros_like(ref), 1.0) == pytest.approx(psnr(ref, np.zeros_like(ref), 1.0))
+    with pytest.raises(ValueError, match="per_channel needs \\(H, W, C\\) images"):
+        psnr_after_gain(ref[..., 0], est[..., 0], 1.0, per_channel=True)
+    with pytest.raises(TypeError, match="per_channel must be True or False"):
+        psnr_after_gain(ref, est, 1.0, per_channel="yes")
+    with pytest.raises(ValueError, match="data_range must be a positive"):
+        psnr_after_gain(ref, est, 0.0)
 
 
 images = arrays(np.float64, st.tuples(st.integers(11, 20), st.integers(11, 20)),
