@@ -2,13 +2,16 @@
 
 Usage::
 
-    python scripts/make_golden.py [--out golden] [--only NAME ...]
+    python scripts/make_golden.py [--out golden] [--only NAME ... | --manifest-only]
 
 Each case becomes ``golden/<name>.npz`` holding its inputs (``in_*``) and the
 oracle's outputs (``out_*``); ``golden/manifest.json`` lists equation, function,
-oracle, parameters and tolerances.  Inputs come from fixed seeds, so running
-this again rewrites identical arrays.  ``--only`` regenerates the named cases and keeps the
-other files and manifest entries as they are (the pipeline oracles take minutes each).
+oracle, the specification's section (``spec``, in ``docs/spec/``), parameters and
+tolerances.  Inputs come from fixed seeds, so running this again rewrites identical
+arrays.  ``--only`` regenerates the named cases and keeps the other files as they are
+(the pipeline oracles take minutes each); ``--manifest-only`` regenerates no file but the
+manifest.  Either way every manifest entry is rewritten from the registry
+(``spikeref/oracles/golden_cases.py``), with the dtypes and shapes of the files on disk.
 """
 
 from __future__ import annotations
@@ -19,50 +22,41 @@ from pathlib import Path
 
 import numpy as np
 
-from spikeref.oracles.golden_cases import CASES
-
-
-def _spec(a: np.ndarray) -> dict:
-    return {"dtype": str(a.dtype), "shape": list(a.shape)}
+from spikeref.oracles.golden_cases import CASES, build_manifest
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "golden")
-    parser.add_argument("--only", nargs="+", default=None, metavar="NAME", help="regenerate only these cases")
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--only", nargs="+", default=None, metavar="NAME", help="regenerate only these cases")
+    group.add_argument("--manifest-only", action="store_true",
+                       help="regenerate no case file, only manifest.json (from the registry and the files)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     names = [c.name for c in CASES]
     unknown = [n for n in args.only or () if n not in names]
     if unknown:
         parser.error(f"unknown case {', '.join(unknown)}; cases: {', '.join(names)}")
-    old = {}
-    if args.only and (args.out / "manifest.json").is_file():
-        old = {c["name"]: c for c in json.loads((args.out / "manifest.json").read_text())["cases"]}
-    manifest = {"format": 1, "cases": []}
-    for case in CASES:
-        if args.only and case.name not in args.only:
-            if case.name in old:
-                manifest["cases"].append(old[case.name])
-            continue
+    if args.manifest_only:
+        todo = []
+    elif args.only:
+        todo = [c for c in CASES if c.name in args.only]
+    else:
+        todo = list(CASES)
+    made = {}
+    for case in todo:
         inputs = case.make_inputs()
         outputs = case.run_oracle(inputs)
         arrays = {f"in_{k}": np.asarray(v) for k, v in inputs.items()}
         arrays.update({f"out_{k}": np.asarray(v) for k, v in outputs.items()})
         np.savez_compressed(args.out / f"{case.name}.npz", **arrays)
-        manifest["cases"].append({
-            "name": case.name,
-            "file": f"{case.name}.npz",
-            "equation": case.equation,
-            "function": case.function,
-            "oracle": case.oracle,
-            "description": case.description,
-            "params": case.params,
-            "inputs": {k: _spec(a) for k, a in arrays.items() if k.startswith("in_")},
-            "outputs": {k: _spec(a) for k, a in arrays.items() if k.startswith("out_")},
-            "tolerance": {"rtol": case.rtol, "atol": case.atol},
-        })
+        made[case.name] = arrays
         print(f"{case.name:16s} {', '.join(arrays)}")
+    try:
+        manifest = build_manifest(args.out, made)
+    except FileNotFoundError as exc:
+        parser.error(str(exc))
     (args.out / "manifest.json").write_text(json.dumps(manifest, indent=2, ensure_ascii=False) + "\n")
 
 

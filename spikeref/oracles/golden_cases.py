@@ -35,7 +35,7 @@ from spikeref.denoise import shrinkage as _shr
 from spikeref.simulate import camera as _cam
 from spikeref.simulate import effects as _fx
 
-__all__ = ["GoldenCase", "CASES"]
+__all__ = ["GoldenCase", "CASES", "MANIFEST_FORMAT", "manifest_entry", "build_manifest"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,9 @@ class GoldenCase:
     rtol: float = 0.0
     atol: float = 0.0
     params: dict = field(default_factory=dict)
+    #: The section of ``docs/spec/`` that specifies the case for a port (``page.md#anchor``, relative to
+    #: the repository root): inputs, parameters, procedure, borders, rounding and outputs.
+    spec: str = ""
     #: Run also with ``NUMBA_DISABLE_JIT=1`` in ``tests/test_golden.py``. False only for the two
     #: end-to-end pipelines: as Python their U-Net passes take tens of minutes, and every kernel they
     #: compose is checked without the JIT by its own case.
@@ -415,14 +418,16 @@ def _metrics_out(psnr, ssim, pu21, i):
 
 CASES: list[GoldenCase] = [
     GoldenCase(
-        "dat_layout", "§3 storage (DESIGN §3)", "spikeref.io.dat.pack_planes / unpack_planes",
-        "spikeref.oracles.dat.pack_dat_oracle",
-        "Bytes of a .dat file: LSB-first bits, rows bottom-up; and a 16-wide stored row cropped to 12 columns.",
+        "dat_layout", "— (storage: the spike-camera .dat layout, not in the paper)",
+        "spikeref.io.dat.pack_planes / unpack_planes", "spikeref.oracles.dat.pack_dat_oracle",
+        "Bytes of a .dat file: LSB-first bits, rows bottom-up; and a 16-wide stored row cropped to its first 12 "
+        "columns (column offset 0).",
         _inputs_dat,
         lambda i: {"bytes": o_dat.pack_dat_oracle(i["spikes"]),
                    "cropped": o_dat.unpack_dat_oracle(o_dat.pack_dat_oracle(i["wide_spikes"]), 2, 12, 16)},
         lambda i: {"bytes": _dat.pack_planes(i["spikes"]).ravel(),
                    "cropped": _dat.unpack_planes(_dat.pack_planes(i["wide_spikes"]), 2, 12, 16)},
+        spec="docs/spec/io.md#dat_layout",
     ),
     GoldenCase(
         "eq1_3_fire", "Eq. 1–3", "spikeref.simulate.camera.fire", "spikeref.oracles.camera.fire_oracle",
@@ -430,6 +435,7 @@ CASES: list[GoldenCase] = [
         _inputs_camera,
         lambda i: {"spikes": o_cam.fire_oracle(i["charge"], float(i["threshold"]), i["phase"])},
         _fire,
+        spec="docs/spec/simulate.md#eq1_3_fire",
     ),
     GoldenCase(
         "eq1_3_fire_fpn", "Eq. 1–3 + threshold FPN", "spikeref.simulate.camera.fire",
@@ -438,6 +444,7 @@ CASES: list[GoldenCase] = [
         _inputs_camera_fpn,
         lambda i: {"spikes": o_cam.fire_oracle(i["charge"], i["thresholds"], i["phase"])},
         lambda i: {"spikes": _cam.fire(i["charge"], i["thresholds"], np.array(i["phase"], dtype=np.float64))},
+        spec="docs/spec/simulate.md#eq1_3_fire_fpn",
     ),
     GoldenCase(
         "eq3_cfa", "Eq. 3", "spikeref.simulate.camera.mosaic_radiance",
@@ -447,6 +454,7 @@ CASES: list[GoldenCase] = [
         lambda i: {"mosaic": o_cam.mosaic_radiance_oracle(i["rgb"], "RGGB")},
         lambda i: {"mosaic": _cam.mosaic_radiance(i["rgb"], "RGGB")},
         params={"cfa": "RGGB"},
+        spec="docs/spec/simulate.md#eq3_cfa",
     ),
     GoldenCase(
         "eq6_9_noise", "Eq. 6, 8, 9", "spikeref.simulate.effects.dark_expected_count / inherent_rate_paper / "
@@ -459,6 +467,7 @@ CASES: list[GoldenCase] = [
         lambda i: _noise_outputs(i, _fx.dark_expected_count, _fx.inherent_rate_paper, _fx.inherent_rate_exact,
                                  _fx.noise_fraction),
         rtol=1e-7,
+        spec="docs/spec/simulate.md#eq6_9_noise",
     ),
     GoldenCase(
         "eq10_11_blindspot", "Eq. 10–11", "spikeref.denoise.blindspot.masked_volume / mask_aware_average",
@@ -471,14 +480,17 @@ CASES: list[GoldenCase] = [
         lambda i: {"volume": _bs.masked_volume(i["plane"]),
                    "phi": _bs.mask_aware_average(i["outputs"], _bs.cell_masks(7, 10))},
         rtol=1e-12, atol=1e-14, params={"h_s": 4, "w_s": 4},
+        spec="docs/spec/denoise.md#eq10_11_blindspot",
     ),
     GoldenCase(
         "unet_forward", "§4.1 f_θ (supplement §8)", "spikeref.denoise.unet.UNet",
         "spikeref.oracles.unet.unet_forward_oracle",
         "The 25-convolution U-Net (width 8, depth 5, LeakyReLU 0.1) with fixed random weights on two 37×50 "
-        "images (reflect-padded to 64×64 and cropped back). tests/test_unet.py also holds the PyTorch twin to it.",
+        "images (padded at the bottom and right to 64×64 whole-sample symmetrically, NumPy's 'reflect': row 37 "
+        "reads row 35; cropped back). tests/test_unet.py also holds the PyTorch twin to it.",
         _inputs_unet, _unet_oracle, _unet_fast,
         rtol=1e-4, atol=1e-5, params={"width": 8, "depth": 5, "negative_slope": 0.1},
+        spec="docs/spec/unet.md#unet_forward",
     ),
     GoldenCase(
         "eq4_accumulate", "Eq. 4", "spikeref.accumulate.accumulate", "spikeref.oracles.accumulate.accumulate_oracle",
@@ -487,6 +499,7 @@ CASES: list[GoldenCase] = [
         lambda i: {"frames": o_acc.accumulate_oracle(i["spikes"], int(i["window"]), int(i["start"]))},
         lambda i: {"frames": _accumulate(i["spikes"], int(i["window"]), start=int(i["start"]))},
         atol=1e-7,
+        spec="docs/spec/accumulate.md#eq4_accumulate",
     ),
     GoldenCase(
         "bayer_planes", "§4.1 (Fig. 3a)", "spikeref.bayer.bayer_planes", "spikeref.oracles.bayer.bayer_planes_oracle",
@@ -494,6 +507,7 @@ CASES: list[GoldenCase] = [
         _inputs_mosaic,
         lambda i: {"planes": o_bayer.bayer_planes_oracle(i["mosaic"])},
         lambda i: {"planes": _bayer.bayer_planes(i["mosaic"])},
+        spec="docs/spec/bayer.md#bayer_planes",
     ),
 ] + [
     GoldenCase(
@@ -503,7 +517,7 @@ CASES: list[GoldenCase] = [
         _inputs_mosaic,
         (lambda c: lambda i: {"rgb": o_bayer.demosaic_bilinear_oracle(i["mosaic"], c)})(cfa),
         (lambda c: lambda i: {"rgb": _bayer.demosaic_bilinear(i["mosaic"], c)})(cfa),
-        atol=1e-12, params={"cfa": cfa},
+        atol=1e-12, params={"cfa": cfa}, spec="docs/spec/bayer.md#psi_rggb-psi_bggr-psi_grbg-psi_gbrg",
     )
     for cfa in _bayer.CFA_PATTERNS
 ] + [
@@ -514,6 +528,7 @@ CASES: list[GoldenCase] = [
         "colour kept, the others from the five 5×5 filters in eighths, the mosaic mirrored about its edge "
         "pixels (index −1 → 1), negative results clipped to 0.",
         _inputs_mhc, _mhc_oracle, _mhc_fast, rtol=1e-10, atol=1e-12, params={"cfas": list(_bayer.CFA_PATTERNS)},
+        spec="docs/spec/bayer.md#demosaic_mhc",
     ),
 ] + [
     GoldenCase(
@@ -525,6 +540,7 @@ CASES: list[GoldenCase] = [
         lambda i: {"frames": np.stack([_bl.tfp(i["spikes"], 7, start=s, count=1)[0]
                                        for s in range(0, i["spikes"].shape[0] - 6)])},
         atol=1e-7, params={"half_window": 3},
+        spec="docs/spec/baselines.md#tfp",
     ),
     GoldenCase(
         "tfi", "TFI (Zhu et al. 2019)", "spikeref.baselines.tfi", "spikeref.oracles.baselines.tfi_oracle",
@@ -533,6 +549,7 @@ CASES: list[GoldenCase] = [
         lambda i: {"rates": o_bl.tfi_oracle(i["spikes"])},
         lambda i: {"rates": _bl.tfi(i["spikes"])},
         rtol=1e-6, params={"max_interval": 256, "boundary": 257},
+        spec="docs/spec/baselines.md#tfi",
     ),
     GoldenCase(
         "tfstp", "TFSTP (Zheng et al. 2023)", "spikeref.baselines.tfstp", "spikeref.oracles.baselines.tfstp_oracle",
@@ -541,6 +558,7 @@ CASES: list[GoldenCase] = [
         lambda i: {"rates": o_bl.tfstp_oracle(i["spikes"])},
         lambda i: {"rates": _bl.tfstp(i["spikes"])},
         rtol=1e-5, atol=1e-7, params={"u0": 0.15, "D": 1.0, "F": 10.0, "f": 0.15},
+        spec="docs/spec/baselines.md#tfstp",
     ),
     GoldenCase(
         "eq14_warp_spikes", "Eq. 14", "spikeref.warp.warp_spike_windows", "spikeref.oracles.warp.eq14_oracle",
@@ -549,12 +567,14 @@ CASES: list[GoldenCase] = [
         "summed over K·W. The fast function warps window counts; the oracle samples plane by plane.",
         _inputs_warp, _warp_eq14_oracle, _warp_eq14_fast,
         rtol=1e-5, atol=1e-6, params={"K": 3, "W": 4, "flow": "alternate[y+dy, x+dx] ≈ reference[y, x]"},
+        spec="docs/spec/warp.md#eq14_warp_spikes",
     ),
     GoldenCase(
         "eq15_warp_frames", "Eq. 15", "spikeref.warp.warp_average", "spikeref.oracles.warp.eq15_oracle",
         "K=3 frames (4, 6, 9) warped by their flows and averaged: Σ s_i / Σ w_i (1/K Σ where all inside).",
         _inputs_warp, _warp_eq15_oracle, _warp_eq15_fast,
         rtol=1e-5, atol=1e-6, params={"K": 3},
+        spec="docs/spec/warp.md#eq15_warp_frames",
     ),
     GoldenCase(
         "align_hdrplus", "§4.2 / supplement §8 (HDR+ alignment)", "spikeref.align.align_tiles, spikeref.align.align",
@@ -567,6 +587,7 @@ CASES: list[GoldenCase] = [
         rtol=1e-5, atol=1e-5,
         params={"levels": 4, "tile_by_step": [16, 16, 8], "coarse_tile": 8, "search_radius": [1, 4, 4, 4],
                 "subpixel": True, "pyramid_kernel": [1, 4, 6, 4, 1]},
+        spec="docs/spec/align.md#align_hdrplus",
     ),
     GoldenCase(
         "eq12_revisible_loss", "Eq. 12", "spikeref.denoise.revisible.revisible_loss",
@@ -578,6 +599,7 @@ CASES: list[GoldenCase] = [
         lambda i: _revisible_outputs(o_rev.revisible_loss_oracle, i),
         lambda i: _revisible_outputs(_rev.revisible_loss, i),
         rtol=1e-12, atol=0.0, params={"lam_eta": [list(v) for v in _REVISIBLE_SETTINGS], "norm": "mean over pixels"},
+        spec="docs/spec/denoise.md#eq12_revisible_loss",
     ),
     GoldenCase(
         "shrinkage_residual", "— (not in the paper; after Eq. 10–11's D)",
@@ -589,6 +611,7 @@ CASES: list[GoldenCase] = [
         lambda i: _shrinkage_outputs(o_shr.shrink_residual_oracle, i),
         lambda i: _shrinkage_outputs(_shr.shrink_residual, i),
         rtol=1e-6, atol=1e-7, params={"radius": 1, "windows": [10, 200], "dtype": "float32"},
+        spec="docs/spec/denoise.md#shrinkage_residual",
     ),
     GoldenCase(
         "pipeline_frames", "Eq. 13–15, Fig. 3(b)", "spikeref.pipeline.Reconstructor (frames with keep_steps)",
@@ -606,6 +629,7 @@ CASES: list[GoldenCase] = [
                 "input_domain": "count", "exposure": "W at l=0, W/Σc² at l≥1 (spikeref.pipeline.exposure_planes)",
                 "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
         jit_disabled_check=False,
+        spec="docs/spec/pipeline.md#pipeline_frames",
     ),
     GoldenCase(
         "flow_luma", "— (not in the paper; the flow frames of flow_frames=\"smoothed\")",
@@ -616,7 +640,9 @@ CASES: list[GoldenCase] = [
         "border; float64 arithmetic, float32 result.",
         _inputs_flow_luma,
         _flow_luma_oracle, _flow_luma_fast,
-        rtol=1e-6, atol=1e-7, params={"sigmas": list(_FLOW_SIGMAS), "truncate": 4.0, "border": "reflect"},
+        rtol=1e-6, atol=1e-7, params={"sigmas": list(_FLOW_SIGMAS), "truncate": 4.0,
+                                            "border": "half-sample symmetric (SciPy 'reflect': index −1 reads 0)"},
+        spec="docs/spec/pipeline.md#flow_luma",
     ),
     GoldenCase(
         "pipeline_frames_smoothed_flow", "Eq. 13–15 with flow_frames=\"smoothed\" (not in the paper)",
@@ -631,6 +657,7 @@ CASES: list[GoldenCase] = [
                 "input_domain": "count", "flow_frames": "smoothed", "flow_sigma": 1.0,
                 "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
         jit_disabled_check=False,
+        spec="docs/spec/pipeline.md#pipeline_frames_smoothed_flow",
     ),
     GoldenCase(
         "pipeline_frames_composed_guard",
@@ -651,6 +678,7 @@ CASES: list[GoldenCase] = [
                 "guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05,
                 "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
         jit_disabled_check=False,
+        spec="docs/spec/pipeline.md#pipeline_frames_composed_guard",
     ),
     GoldenCase(
         "pipeline_frames_chained",
@@ -666,6 +694,7 @@ CASES: list[GoldenCase] = [
                 "input_domain": "count", "warp": "chained", "flow_frames": "denoised", "guard": "sure",
                 "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
         jit_disabled_check=False,
+        spec="docs/spec/pipeline.md#pipeline_frames_chained",
     ),
     GoldenCase(
         "metrics_psnr_ssim_pu21", "metrics (Wang et al. 2004 SSIM; Mantiuk & Azimi 2021 PU21)",
@@ -678,5 +707,55 @@ CASES: list[GoldenCase] = [
         lambda i: _metrics_out(o_met.psnr_oracle, o_met.ssim_oracle, o_met.pu21_oracle, i),
         lambda i: _metrics_out(_met.psnr, _met.ssim, _met.pu21_encode, i),
         rtol=1e-10, atol=1e-12,
+        spec="docs/spec/metrics.md#metrics_psnr_ssim_pu21",
     ),
 ]
+
+
+#: ``format`` of ``golden/manifest.json``: 2 added each case's ``spec`` (format 1 had every other field).
+MANIFEST_FORMAT = 2
+
+
+def _array_spec(a: np.ndarray) -> dict:
+    return {"dtype": str(a.dtype), "shape": list(a.shape)}
+
+
+def manifest_entry(case: GoldenCase, arrays: dict) -> dict:
+    """The manifest entry of ``case`` whose file holds ``arrays`` (``{"in_…"/"out_…": array}``, file order)."""
+    return {
+        "name": case.name,
+        "file": f"{case.name}.npz",
+        "equation": case.equation,
+        "function": case.function,
+        "oracle": case.oracle,
+        "description": case.description,
+        "spec": case.spec,
+        "params": case.params,
+        "inputs": {k: _array_spec(np.asarray(a)) for k, a in arrays.items() if k.startswith("in_")},
+        "outputs": {k: _array_spec(np.asarray(a)) for k, a in arrays.items() if k.startswith("out_")},
+        "tolerance": {"rtol": case.rtol, "atol": case.atol},
+    }
+
+
+def build_manifest(golden, arrays: dict | None = None) -> dict:
+    """``golden/manifest.json`` as the registry says it: every case of :data:`CASES`, in order.
+
+    ``arrays`` maps a case name to its arrays (those just made); any other case's arrays are read
+    from ``golden/<name>.npz`` (only their dtypes and shapes enter the manifest).
+    """
+    from pathlib import Path
+
+    golden = Path(golden)
+    arrays = arrays or {}
+    cases = []
+    for case in CASES:
+        if case.name in arrays:
+            found = arrays[case.name]
+        else:
+            path = golden / f"{case.name}.npz"
+            if not path.is_file():
+                raise FileNotFoundError(f"{path} is missing: make it with scripts/make_golden.py --only {case.name}")
+            with np.load(path, allow_pickle=False) as data:
+                found = {k: data[k] for k in data.files}
+        cases.append(manifest_entry(case, found))
+    return {"format": MANIFEST_FORMAT, "cases": cases}

@@ -1,0 +1,110 @@
+"""Every golden case is specified for a port: its manifest entry names a section of ``docs/spec/``
+that exists, holds a procedure and names every array of the case; the manifest is the registry's.
+"""
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from spikeref.oracles.golden_cases import CASES, MANIFEST_FORMAT, build_manifest
+
+ROOT = Path(__file__).resolve().parents[1]
+GOLDEN = ROOT / "golden"
+SPEC = ROOT / "docs" / "spec"
+MANIFEST = json.loads((GOLDEN / "manifest.json").read_text(encoding="utf-8"))
+
+#: What every case section must say, each as a bold label.
+LABELS = ("**Inputs**", "**Procedure**", "**Outputs**")
+
+
+def slug(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading: lower case, punctuation dropped, spaces to hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def headings(text: str) -> list[tuple[int, int, str]]:
+    """``(line index, level, text)`` of every ATX heading outside fenced code blocks."""
+    out, fenced = [], False
+    for n, line in enumerate(text.splitlines()):
+        if line.lstrip().startswith("```"):
+            fenced = not fenced
+            continue
+        m = re.match(r"(#{1,6}) (.+?)\s*#*\s*$", line)
+        if m and not fenced:
+            out.append((n, len(m.group(1)), m.group(2)))
+    return out
+
+
+def section(path: Path, anchor: str) -> str:
+    """The text under the heading whose anchor is ``anchor``, up to the next heading of its level or above."""
+    text = path.read_text(encoding="utf-8")
+    lines = text.splitlines()
+    found = headings(text)
+    for i, (n, level, title) in enumerate(found):
+        if slug(title) == anchor:
+            end = next((m for m, lv, _ in found[i + 1:] if lv <= level), len(lines))
+            return "\n".join(lines[n + 1:end])
+    raise AssertionError(f"{path.relative_to(ROOT)} has no heading with the anchor #{anchor}")
+
+
+def test_manifest_is_the_registry_s():
+    """golden/manifest.json is what scripts/make_golden.py writes from the registry and the files."""
+    assert MANIFEST["format"] == MANIFEST_FORMAT >= 2
+    assert MANIFEST == json.loads(json.dumps(build_manifest(GOLDEN), ensure_ascii=False))
+
+
+@pytest.mark.parametrize("case", MANIFEST["cases"], ids=lambda c: c["name"])
+def test_case_has_a_specification(case):
+    spec = case.get("spec")
+    assert isinstance(spec, str) and spec, f"{case['name']}: no 'spec' field in the manifest"
+    m = re.fullmatch(r"(docs/spec/[\w\-]+\.md)#([\w\-]+)", spec)
+    assert m, f"{case['name']}: spec {spec!r} is not docs/spec/<page>.md#<anchor>"
+    path = ROOT / m.group(1)
+    assert path.is_file(), f"{case['name']}: {m.group(1)} does not exist"
+    body = section(path, m.group(2))
+    words = re.sub(r"\s+", " ", body)
+    assert len(words) > 300, f"{spec}: the section is (nearly) empty"
+    for label in LABELS:
+        assert label in body, f"{spec}: the section has no {label}"
+    procedure = body.split("**Procedure**", 1)[1]
+    assert len(procedure.split("**Outputs**", 1)[0].strip()) > 40, f"{spec}: the procedure is empty"
+    for key in list(case["inputs"]) + list(case["outputs"]):
+        name = "in_param_" if key.startswith("in_param_") else key
+        assert f"`{name}" in body, f"{spec}: the section does not describe {key}"
+
+
+def test_registry_cases_all_have_a_spec():
+    assert [c.name for c in CASES if not c.spec] == []
+
+
+def test_spec_pages_have_unique_anchors_and_links_resolve():
+    """Every relative link of docs/spec/ (and golden/README.md's into it) reaches a file and heading."""
+    pages = sorted(SPEC.glob("*.md")) + [GOLDEN / "README.md", ROOT / "docs" / "equations.md"]
+    for page in pages:
+        text = page.read_text(encoding="utf-8")
+        anchors = [slug(t) for _, _, t in headings(text)]
+        if page.parent == SPEC:
+            assert len(anchors) == len(set(anchors)), f"{page.name}: two headings share an anchor"
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            if re.match(r"[a-z]+:", target):
+                continue
+            file, _, anchor = target.partition("#")
+            dest = (page.parent / file).resolve() if file else page
+            if page.parent != SPEC and "spec" not in dest.parts:
+                continue  # outside docs/spec only the links into it are checked here
+            assert dest.is_file(), f"{page.relative_to(ROOT)}: link {target} reaches no file"
+            if anchor and dest.suffix == ".md":
+                section(dest, anchor)
+
+
+def test_golden_readme_points_to_the_specification():
+    text = (GOLDEN / "README.md").read_text(encoding="utf-8")
+    assert "../docs/spec/README.md" in text
+
+
+def test_no_document_cites_the_design_notes():
+    """The design notes are not part of the repository: a port's documents must not send it there."""
+    for path in [*GOLDEN.glob("*.md"), GOLDEN / "manifest.json", *(ROOT / "docs").rglob("*.md")]:
+        assert "DESIGN §" not in path.read_text(encoding="utf-8"), path.relative_to(ROOT)
