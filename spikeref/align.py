@@ -625,9 +625,9 @@ def local_noise(image, box: int = LOCAL_NOISE_BOX) -> np.ndarray:
     """Per-pixel noise variance: :func:`estimate_noise` over a ``box × box`` neighbourhood.
 
     ``(√(π/2) · m(p) / 6)²`` with ``m`` the mean of ``|Laplacian|`` (Immerkær's kernel) over the box
-    centred on ``p`` (the Laplacian's border ring replicates its edge; the box is clipped at the
-    image's border).  Spike noise depends on the rate, so a map follows it where one number
-    cannot.
+    centred on ``p`` (the Laplacian's border ring replicates its edge, and so does the box beyond the
+    image's border: SciPy's ``uniform_filter(mode="nearest")``).  Spike noise depends on the rate, so a
+    map follows it where one number cannot.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Oracle for the ``.dat`` bit layout (DESIGN §3): LSB-first bits, rows bottom-up."""
+"""Oracle for the ``.dat`` bit layout (docs/spec/io.md): LSB-first bits, rows bottom-up."""
 
 import numpy as np
 

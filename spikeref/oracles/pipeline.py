@@ -9,7 +9,7 @@ or kept in rings: each quantity is defined by its equation and computed once per
 memoised by its (step, window) key. :class:`spikeref.pipeline.Reconstructor` must give
 the same frames (``golden/pipeline_frames.npz``).
 
-Definitions (DESIGN §4; ``h = (K − 1)/2``; window ``j`` = planes ``[jW, (j+1)W)``):
+Definitions (docs/spec/pipeline.md; ``h = (K − 1)/2``; window ``j`` = planes ``[jW, (j+1)W)``):
 
 * ``I_0(j)``: the Bayer planes of Eq. 4 over window ``j``.
 * ``D_l(j) = f(I_l(j)·E_l)/E_l``, then the shrinkage with window ``E_l``. ``E_l`` is the

@@ -7,7 +7,7 @@ def revisible_loss_oracle(blind, visible, noisy, lam, eta=1.0):
     """Eq. 12 pixel by pixel, in Python floats.
 
     ``L_r = (1/N) Σ_x (D(x) + λ f(x) − (λ + 1) I(x))² + η (1/N) Σ_x (D(x) − I(x))²``.
-    Each squared norm is a mean over the ``N`` pixels (DESIGN §4). ``f`` is the visible
+    Each squared norm is a mean over the ``N`` pixels (docs/spec/denoise.md). ``f`` is the visible
     output; the stop-gradient changes no value, only the gradient, so it does not appear here.
     """
     d = [float(v) for v in blind.ravel()]
