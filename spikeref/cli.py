@@ -1113,7 +1113,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "relative, atol absolute, in the arrays' units) and the out_* arrays a port "
                                     "must produce, from golden/manifest.json and the registry "
                                     "spikeref/oracles/golden_cases.py (a disagreement between them is noted).")
-    g.add_argument("--golden", type=Path, default=None, help=golden_help)
+    g.add_argument("--golden", type=Path, default=None, metavar="DIR", help=golden_help)
     g.add_argument("-v", "--verbose", action="store_true",
                    help="also each case's inputs and outputs (shape and dtype), Python function, oracle, "
                         "description and specification")
@@ -1128,7 +1128,7 @@ def build_parser() -> argparse.ArgumentParser:
                                     "Exit status 0 when every case passes, 1 when one fails or is missing, 2 when the "
                                     "command is refused.")
     g.add_argument("dir", type=Path, metavar="DIR", help="folder of the port's outputs")
-    g.add_argument("--golden", type=Path, default=None, help=golden_help)
+    g.add_argument("--golden", type=Path, default=None, metavar="DIR", help=golden_help)
     g.add_argument("--cases", default=None,
                    help="comma-separated case names to check (default: every case; a case with no output fails)")
     g = gsub.add_parser("export", help="write every case's inputs as .npy or raw .bin files for a port",
@@ -1139,14 +1139,13 @@ def build_parser() -> argparse.ArgumentParser:
                                     "that have no NumPy). Also DIR/manifest.json (a copy) and DIR/NAME/case.json (the "
                                     "case's parameters, tolerance and the list of its array files). A port that writes "
                                     "its outputs beside them as out_KEY.npy or out_KEY.bin + out_KEY.json is checked "
-                                    "with spikeref golden check DIR. Files of the same names are replaced.",
-                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                                    "with spikeref golden check DIR. Files of the same names are replaced.")
     g.add_argument("dir", type=Path, metavar="DIR", help="folder to write (made if missing)")
     g.add_argument("--format", choices=["npy", "bin"], default="npy",
-                   help="npy: NumPy .npy files; bin: raw little-endian bytes with a JSON header each")
+                   help="npy (default): NumPy .npy files; bin: raw little-endian bytes with a JSON header each")
     g.add_argument("--with-outputs", action="store_true",
                    help="also write the expected out_* arrays (for a port whose own test compares them)")
-    g.add_argument("--golden", type=Path, default=None, help=golden_help)
+    g.add_argument("--golden", type=Path, default=None, metavar="DIR", help=golden_help)
 
     debug_help = "on an error or an interruption, show the Python traceback (also: SPIKEREF_DEBUG=1)"
     parser.add_argument("--debug", action="store_true", help=debug_help)
