@@ -75,3 +75,9 @@ def test_the_committed_tour_lists_the_same_figures():
         assert path.is_file(), name
         assert path.stat().st_size < 150_000, name
     assert "--small" not in text
+
+
+def test_the_readme_links_the_tour_in_its_first_screen():
+    lines = (ROOT / "README.md").read_text().splitlines()
+    block_end = [i for i, line in enumerate(lines) if line.startswith("```")][1]  # the two commands' block
+    assert any("(docs/tour.md)" in line for line in lines[block_end + 1:block_end + 4])
