@@ -1,85 +1,170 @@
-"""Denoise mode on the benchmark scenes: identity (TFP), the network with and without the SURE guard, BM3D, NLM.
+"""Denoise mode: identity (TFP), the network with and without the SURE guard, BM3D, NLM — on one W window.
 
 Each denoiser is applied to the four Bayer planes of one W-plane window (Eq. 4 rates), the planes
 are put back into the mosaic, demosaicked with Ψ and scored in linear RGB against the exact
 ground truth of that window: PSNR with the ground truth's peak as the data range, after a
-least-squares gain per channel, an 8-pixel border left out, averaged over the windows (planes
-300 and 420 on) and then over the scenes.  BM3D and NLM (the ``peers`` extra) run off the shelf,
-σ estimated blind from each plane; they are left out when not installed.
+least-squares gain per channel (``spikeref.metrics.psnr_after_gain``), an 8-pixel border left
+out, averaged over the windows (planes 300 and 420 on) and then over the scenes.  BM3D and NLM
+(the ``peers`` extra) run off the shelf, σ estimated blind from each plane; they are left out
+when not installed.
 
-    python scripts/eval_guard.py [--windows 10,20,50,100,200] [--scenes static,...] [--no-peers]
+Sets (``--set``):
+
+* ``bench``: the benchmark scenes (``spikeref/bench/scenes/``, seed 0) — the tuning set;
+* ``heldout``: never trained or tuned on, fixed before the denoiser was retrained — the four
+  natural-motion scenes ``scripts/heldout_scenes/*.toml`` (other photographs and motions, more
+  noise; seed 11) and the four procedural ``scripts/denoiser_scenes/heldout_*.toml`` (seed 8);
+* ``real``: SpikingSIM's real outdoor recording in ``../shared/data/real/`` (monochrome, near
+  static): windows from planes 0–200 (starts 0 and 100 … so that every W fits), the four 2×2
+  phases denoised as planes and put back, scored without Ψ against the mean of planes 300–500
+  (a pseudo ground truth with disjoint noise), one gain for the whole image.
+
+``--weights`` names the networks to score (default: the bundled one); ``--speed`` adds the
+seconds per 250×400 frame (four 125×200 planes) of the network (guarded and not) and BM3D, in
+this run, with the threads torch/Numba have.
+
+    python scripts/eval_guard.py [--set bench|heldout|real] [--windows 10,20,50,100,200] [--weights F ...]
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import numpy as np
 
+ROOT = Path(__file__).resolve().parent.parent
+REAL = ROOT.parent / "shared" / "data" / "real" / "spikingsim_real_spike.npz"
 BORDER = 8
 STARTS = (300, 420)
+REAL_STARTS = (0, 100)  # windows of up to 100 planes fit twice in planes 0–200; W = 200 once
 
 
 def score(truth: np.ndarray, image: np.ndarray) -> float:
     from spikeref.metrics import psnr_after_gain
 
     crop = (slice(BORDER, -BORDER), slice(BORDER, -BORDER))
-    return psnr_after_gain(truth[crop], np.asarray(image)[crop], float(truth.max()), per_channel=True)
+    per_channel = np.ndim(truth) == 3
+    return psnr_after_gain(np.asarray(truth, np.float64)[crop], np.asarray(image, np.float64)[crop],
+                           float(truth.max()), per_channel=per_channel)
+
+
+def scene_cases(which: str, windows):
+    """``(scene key, W, planes (4, h, w), truth, cfa)`` of every window scored."""
+    from spikeref.accumulate import accumulate
+    from spikeref.bayer import bayer_planes
+    from spikeref.bench.runner import bench_scenes, load_bench_scene
+    from spikeref.simulate.simulator import ground_truth
+
+    if which == "bench":
+        scenes = [(sc, 0) for sc in bench_scenes()]
+    else:
+        scenes = [(load_bench_scene(p), 11) for p in sorted((ROOT / "scripts" / "heldout_scenes").glob("*.toml"))]
+        scenes += [(load_bench_scene(p), 8)
+                   for p in sorted((ROOT / "scripts" / "denoiser_scenes").glob("heldout_*.toml"))]
+    for sc, seed in scenes:
+        sc.simulate(seed)
+        for w in windows:
+            for start in STARTS:
+                planes = bayer_planes(accumulate(sc.stream, w, start=start, count=1)[0])
+                truth = ground_truth(sc.scene, w, planes=start + w, start=start)[0]
+                yield sc.key, w, planes, truth, sc.stream.cfa
+        sc.stream = None
+
+
+def real_cases(windows):
+    from spikeref.bayer import bayer_planes
+
+    with np.load(REAL) as data:
+        spikes = np.ascontiguousarray(data["arr_0"].transpose(2, 0, 1))  # (T, H, W)
+    truth = spikes[300:500].mean(axis=0, dtype=np.float64)
+    for w in windows:
+        for start in REAL_STARTS:
+            if start + w <= 200:
+                rate = spikes[start : start + w].mean(axis=0, dtype=np.float64).astype(np.float32)
+                yield "real_outdoor", w, bayer_planes(rate), truth, None
 
 
 def main() -> None:
-    from spikeref.accumulate import accumulate
-    from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
-    from spikeref.bench.runner import bench_scenes
-    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.bayer import bayer_mosaic, demosaic_bilinear
+    from spikeref.denoise.denoiser import DEFAULT_WEIGHTS, Denoiser
     from spikeref.denoise.peers import PeerDenoiser, peer_available
-    from spikeref.simulate.simulator import ground_truth
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--set", choices=("bench", "heldout", "real"), default="bench")
     ap.add_argument("--windows", default="10,20,50,100,200")
-    ap.add_argument("--scenes", default=None)
+    ap.add_argument("--weights", type=Path, nargs="+", default=[DEFAULT_WEIGHTS])
     ap.add_argument("--no-peers", action="store_true")
+    ap.add_argument("--no-plain", action="store_true", help="leave out the networks without the guard")
+    ap.add_argument("--speed", action="store_true", help="seconds per 250×400 frame, network against BM3D")
     args = ap.parse_args()
     windows = [int(w) for w in args.windows.split(",")]
-    guarded, plain = Denoiser.load(), Denoiser.load(guard="off")
-    methods = {"identity": lambda p, w: p, "network": lambda p, w: plain(p, window=w),
-               "network + guard": lambda p, w: guarded(p, window=w)}
+    methods = {"identity": lambda p, w: p}
+    several = len(args.weights) > 1
+    for path in args.weights:
+        tag = f" {path.stem}" if several else ""
+        plain, guarded = Denoiser.load(path, guard="off"), Denoiser.load(path)
+        if not args.no_plain:
+            methods["network" + tag] = lambda p, w, d=plain: d(p, window=w)
+        methods["network + guard" + tag] = lambda p, w, d=guarded: d(p, window=w)
     if not args.no_peers:
         for name in ("bm3d", "nlm"):
             if peer_available(name):
                 peer = PeerDenoiser(name)
                 methods[peer.name] = lambda p, w, peer=peer: peer(p, window=w)
-    scenes = bench_scenes(tuple(args.scenes.split(",")) if args.scenes else ())
-    table, secs = {}, {m: [] for m in methods}
-    for sc in scenes:
-        sc.simulate(0)
-        cfa = sc.stream.cfa
-        for w in windows:
-            for start in STARTS:
-                planes = bayer_planes(accumulate(sc.stream, w, start=start, count=1)[0])
-                truth = ground_truth(sc.scene, w, planes=start + w, start=start)[0]
-                for name, fn in methods.items():
-                    t0 = time.perf_counter()
-                    out = fn(planes, w)
-                    secs[name].append(time.perf_counter() - t0)
-                    img = demosaic_bilinear(bayer_mosaic(np.asarray(out, np.float32)), cfa)
-                    table.setdefault((sc.key, w, name), []).append(score(truth, img))
-        sc.stream = None
-        print(f"{sc.key} done", flush=True)
+    cases = real_cases(windows) if args.set == "real" else scene_cases(args.set, windows)
+    table, secs, keys = {}, {m: [] for m in methods}, []
+    for key, w, planes, truth, cfa in cases:
+        if key not in keys:
+            keys.append(key)
+            print(f"{key} …", flush=True)
+        for name, fn in methods.items():
+            t0 = time.perf_counter()
+            out = np.asarray(fn(planes, w), np.float32)
+            secs[name].append(time.perf_counter() - t0)
+            img = bayer_mosaic(out) if cfa is None else demosaic_bilinear(bayer_mosaic(out), cfa)
+            table.setdefault((key, w, name), []).append(score(truth, img))
     names = list(methods)
+    print(f"\n{args.set}: PSNR dB, mean of the windows")
     print("\n| scene | W | " + " | ".join(names) + " |")
     print("|---|---:|" + "---:|" * len(names))
-    for sc in scenes:
+    for key in keys:
         for w in windows:
-            print(f"| {sc.key} | {w} | " + " | ".join(f"{np.mean(table[(sc.key, w, n)]):.2f}" for n in names) + " |")
+            print(f"| {key} | {w} | " + " | ".join(f"{np.mean(table[(key, w, n)]):.2f}" for n in names) + " |")
     for w in windows:
         print(f"| **mean** | {w} | " + " | ".join(
-            f"**{np.mean([np.mean(table[(s.key, w, n)]) for s in scenes]):.2f}**" for n in names) + " |")
-    worst = min(np.mean(table[(s.key, w, "network + guard")]) - np.mean(table[(s.key, w, "identity")])
-                for s in scenes for w in windows)
-    print(f"\nworst (network + guard) − identity over scenes × W: {worst:+.2f} dB")
-    print("seconds per frame (median): " + ", ".join(f"{n} {np.median(v):.3f}" for n, v in secs.items()))
+            f"**{np.mean([np.mean(table[(k, w, n)]) for k in keys]):.2f}**" for n in names) + " |")
+    for name in names[1:]:
+        worst = min((np.mean(table[(k, w, name)]) - np.mean(table[(k, w, "identity")]), k, w)
+                    for k in keys for w in windows)
+        print(f"worst {name} − identity over scenes × W: {worst[0]:+.2f} dB ({worst[1]}, W = {worst[2]})")
+    print("seconds per frame of this set (median): " + ", ".join(f"{n} {np.median(v):.3f}" for n, v in secs.items()))
+    if args.speed:
+        speed(methods)
+
+
+def speed(methods) -> None:
+    """Median seconds per 250×400 frame (four 125×200 Bayer planes of a W = 10 window), same run."""
+    rng = np.random.default_rng(0)
+    planes = (rng.binomial(10, 0.3, size=(4, 125, 200)) / 10).astype(np.float32)
+    timed = {}
+    for name, fn in methods.items():
+        if name == "identity" or name.startswith("nlm"):
+            continue
+        fn(planes, 10)  # compile / warm up
+        reps = 2 if name.startswith("bm3d") else 10
+        runs = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            fn(planes, 10)
+            runs.append(time.perf_counter() - t0)
+        timed[name] = float(np.median(runs))
+    print("seconds per 250×400 frame (median): " + ", ".join(f"{n} {v:.3f}" for n, v in timed.items()))
+    bm3d = [v for n, v in timed.items() if n.startswith("bm3d")]
+    if bm3d:
+        print("BM3D / network: " + ", ".join(f"{n} {bm3d[0] / v:.0f}×" for n, v in timed.items()
+                                              if not n.startswith("bm3d")))
 
 
 if __name__ == "__main__":

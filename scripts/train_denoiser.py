@@ -1,41 +1,54 @@
-"""Reproduce the bundled denoiser weights (``spikeref/denoise/weights/``).
+"""Reproduce the bundled denoiser weights (``spikeref/denoise/weights/``) on a CPU.
 
 1. Simulate the training scenes ``scripts/denoiser_scenes/train_*.toml`` (seed 7) into
-   ``--data-dir`` unless the files are there (the held-out ``heldout_*.toml`` scenes are never
-   trained on: ``scripts/eval_denoiser.py`` scores them).
-2. Train one network per ``--channels`` width with ``spikeref train`` — all widths at once, on
-   one GPU if there is one — and write ``b2u_w<C>.npz`` (+ checkpoint and log) into ``--out``.
+   ``--data-dir`` unless the files are there: five procedural scenes and seven photographs bundled
+   with scikit-image (the ``test`` extra) under motion — rocket, hubble_deep_field,
+   immunohistochemistry, retina, gravel, brick and grass, reserved for training (no photograph
+   of the benchmark or of a held-out set).
+2. Add the real monochrome spikes of ``../shared/data/real/`` when that folder exists (each 2×2
+   phase of a monochrome recording is a one-channel image with genuine sensor noise):
+   ``spikezoo_uhsr.npz`` (real, low light) and ``spikezoo_data_reds_sim_250x400.dat`` (another
+   simulator, a natural REDS frame). ``spikingsim_real_spike.npz`` is never trained on: it is
+   the real-data test. Without ``../shared`` the run trains on the simulated scenes only, and
+   the weights' metadata list the files used.
+3. Train with :func:`spikeref.denoise.train.train` — reading spikes only — and write
+   ``b2u_w<C>.npz`` (+ checkpoint) into ``--out``; with ``--snapshots N`` also a weights file
+   every ``steps/N`` steps (``snap_w<C>_<step>.npz``, metadata ``train_seconds``) for the
+   PSNR-against-wall-time curve (``scripts/train_curve.py``).
 
-``--steps`` fixes the step count (the bundled weights' counts are in ``docs/results.md`` and in
-each file's metadata).  Without it, ``--budget-s`` seconds are shared: a 40-step probe of every
-width measures the step time and the step counts are chosen to fill the budget; the commands
-actually run are printed, so a run can be repeated with fixed steps.  (On a GPU the probe's
-first steps include cuDNN's autotuning: it over-estimates the step time about 3×.)
+Recipes (``--recipe``):
 
-The bundled files (2026-11-23, one H100, ``docs/results.md``):
+* ``cpu`` (default): one of the 16 blind-spot masks per image and step, loss on its hidden
+  pixels (``TrainConfig.masks_per_step = 1``), 64×64 plane crops, 16 crops (64 images) a step.
+* ``paper``: the full Ω of Eq. 10 (16 masks), 128×128 crops, 8 crops a step — the recipe of the
+  weights bundled before 2026-11-24 (one H100).
 
-    # b2u_w16.npz — counts (the default input domain), lr 1e-3, 2800-step schedule stopped
-    # after step 2200 (the GPU machine's time limit ended the run), exported from that checkpoint:
-    spikeref train .train_data/train_*.dat -o b2u_w16.npz --channels 16 --steps 2800 \
-        --lr 1e-3 --checkpoint-every 100 --stop-after 2200
-    # b2u_w32.npz — rates, before counts became the default:
-    spikeref train .train_data/train_*.dat -o b2u_w32.npz --channels 32 --steps 2300 --input-domain rate
+A run may span several sittings: run the same command again and it resumes from the checkpoint
+(the crops drawn are those of an uninterrupted run).
 
-    python scripts/train_denoiser.py --steps 6000 --channels 32 --lr 1e-3 --out out/weights
+    python scripts/train_denoiser.py --recipe cpu --channels 16 --steps 6000 --out out/weights
+    python scripts/train_denoiser.py --probe 20      # seconds per step of both recipes, interleaved
 """
 
 from __future__ import annotations
 
 import argparse
-import re
+import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parent.parent
 SCENES = ROOT / "scripts" / "denoiser_scenes"
+REAL = ROOT.parent / "shared" / "data" / "real"
 SEED = 7
+RECIPES = {
+    "cpu": dict(masks_per_step=1, patch=64, batch=16, lr=1e-3),
+    "paper": dict(masks_per_step=16, patch=128, batch=8, lr=1e-3),
+}
 
 
 def simulate_missing(data_dir: Path) -> list[Path]:
@@ -44,60 +57,114 @@ def simulate_missing(data_dir: Path) -> list[Path]:
     for scene in sorted(SCENES.glob("train_*.toml")):
         dat = data_dir / (scene.stem + ".dat")
         if not dat.is_file():
+            print(f"simulating {scene.name}", flush=True)
             subprocess.run([sys.executable, "-m", "spikeref.cli", "simulate", str(scene), "-o", str(dat),
-                            "--seed", str(SEED)], check=True)
+                            "--seed", str(SEED)], check=True, stderr=subprocess.DEVNULL)
         out.append(dat)
     return out
 
 
-def command(data, channels, steps, output, extra=(), lr=None):
-    return [sys.executable, "-m", "spikeref.cli", "train", *map(str, data), "-o", str(output),
-            "--channels", str(channels), "--steps", str(steps), *(["--lr", str(lr)] if lr else []), *extra]
+def training_streams(data_dir: Path, real: bool = True, min_side: int = 0):
+    """The streams trained on (those at least ``min_side`` pixels high and wide), and their description."""
+    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import SpikeStream
+
+    streams = [open_spike_file(p) for p in simulate_missing(data_dir)]
+    if real and REAL.is_dir():
+        uhsr = REAL / "spikezoo_uhsr.npz"
+        if uhsr.is_file():
+            streams.append(SpikeStream.from_array(np.load(uhsr)["spk"], cfa=None, path=uhsr))
+        reds = REAL / "spikezoo_data_reds_sim_250x400.dat"
+        if reds.is_file():
+            streams.append(open_spike_file(reds, height=250, width=400))
+    for s in [s for s in streams if min(s.height, s.width) < min_side]:
+        print(f"note: {Path(s.path).name} ({s.height}×{s.width}) is smaller than the {min_side}-pixel crop: left out")
+    streams = [s for s in streams if min(s.height, s.width) >= min_side]
+    described = [{"file": Path(s.path).name, "planes": len(s), "height": s.height, "width": s.width}
+                 for s in streams]
+    return streams, described
 
 
-def run_all(commands, logs):
-    procs = []
-    for cmd, log in zip(commands, logs, strict=True):
-        print(" ".join(cmd[2:]).replace("spikeref.cli", "spikeref"), flush=True)
-        procs.append(subprocess.Popen(cmd, stdout=open(log, "w"), stderr=subprocess.STDOUT))
-    codes = [p.wait() for p in procs]
-    for log, code in zip(logs, codes, strict=True):
-        if code:
-            print(Path(log).read_text()[-3000:], file=sys.stderr)
-            raise SystemExit(f"training failed ({log})")
+def config(recipe: str, channels: int, steps: int, checkpoint_every: int):
+    from spikeref.denoise.train import TrainConfig
+
+    return TrainConfig(width=channels, steps=steps, checkpoint_every=checkpoint_every, **RECIPES[recipe])
+
+
+def probe(streams, steps: int, channels: int) -> dict:
+    """Median seconds per step of each recipe, the recipes' steps interleaved (same load for both)."""
+    import torch
+
+    from spikeref.denoise.train import CropSampler, blind_and_visible, blind_subset_and_visible
+    from spikeref.denoise.revisible import revisible_loss_torch
+    from spikeref.denoise.torch_unet import TorchUNet
+
+    rng = np.random.default_rng(0)
+    runs = {}
+    for name in RECIPES:
+        cfg = config(name, channels, 1000, 1000)
+        torch.manual_seed(0)
+        model = TorchUNet(cfg.spec).to(memory_format=torch.channels_last)
+        runs[name] = (cfg, model, torch.optim.Adam(model.parameters(), lr=cfg.lr),
+                      CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, domain="count"), [])
+    for i in range(steps + 2):
+        for cfg, model, opt, sampler, times in runs.values():
+            t0 = time.perf_counter()
+            x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
+            known = None
+            if cfg.masks_per_step < cfg.cell**2:
+                subset = np.argsort(rng.random((x.shape[0], cfg.cell**2)), axis=1)[:, : cfg.masks_per_step]
+                blind, visible, known = blind_subset_and_visible(model, x, torch.from_numpy(subset.T.copy()))
+            else:
+                blind, visible = blind_and_visible(model, x)
+            s = windows.rsqrt()[:, None, None, None]
+            loss = revisible_loss_torch(blind * s, visible * s, x * s, 2.0, 1.0, weight=known)
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            opt.step()
+            if i >= 2:  # the first two steps of each recipe set up oneDNN's kernels
+                times.append(time.perf_counter() - t0)
+    return {name: statistics.median(run[4]) for name, run in runs.items()}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--data-dir", type=Path, default=ROOT / ".train_data")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "weights")
-    ap.add_argument("--channels", default="32", help="comma-separated U-Net widths")
-    ap.add_argument("--steps", type=int, default=None, help="fixed step count (else fill --budget-s)")
-    ap.add_argument("--budget-s", type=float, default=480.0, help="seconds for probe + training")
-    ap.add_argument("--lr", type=float, default=None, help="learning rate (default: spikeref train's)")
+    ap.add_argument("--recipe", choices=sorted(RECIPES), default="cpu")
+    ap.add_argument("--channels", type=int, default=16, help="U-Net width")
+    ap.add_argument("--steps", type=int, default=6000, help="optimiser steps of the schedule")
+    ap.add_argument("--stop-after", type=int, default=None, help="stop after this many steps (resume later)")
+    ap.add_argument("--snapshots", type=int, default=0, help="write this many evenly spaced weight snapshots")
+    ap.add_argument("--no-real", action="store_true", help="leave out ../shared/data/real even if present")
+    ap.add_argument("--probe", type=int, default=0, metavar="N",
+                    help="only measure the median seconds per step of both recipes over N interleaved steps")
     args = ap.parse_args()
-    t0 = time.time()
-    widths = [int(c) for c in args.channels.split(",")]
-    data = simulate_missing(args.data_dir)
+    from spikeref.denoise.train import train
+
+    side = 2 * max(r["patch"] for r in RECIPES.values()) if args.probe else 2 * RECIPES[args.recipe]["patch"]
+    streams, described = training_streams(args.data_dir, real=not args.no_real, min_side=side)
+    if args.probe:
+        per_step = probe(streams, args.probe, args.channels)
+        print(" ".join(f"{k}: {v:.3f} s/step" for k, v in per_step.items())
+              + f"; paper / cpu = {per_step['paper'] / per_step['cpu']:.1f}×")
+        return
+    cfg = config(args.recipe, args.channels, args.steps, checkpoint_every=max(1, min(500, args.steps // 20)))
     args.out.mkdir(parents=True, exist_ok=True)
-    steps = {c: args.steps for c in widths}
-    if args.steps is None:
-        probe = 40
-        logs = [args.out / f"probe_w{c}.log" for c in widths]
-        run_all([command(data, c, probe, args.out / f"probe_w{c}.npz", ["--checkpoint-every", "100000"])
-                 for c in widths], logs)
-        # "wrote …: 40 steps in 4.2 s" — training time without start-up, all widths running at once
-        per_step = {c: float(re.search(r"steps in ([0-9.]+) s", log.read_text()).group(1)) / probe
-                    for c, log in zip(widths, logs, strict=True)}
-        left = args.budget_s - (time.time() - t0) - 40.0  # start-up and export
-        steps = {c: max(100, int(left / per_step[c] * 0.9) // 100 * 100) for c in widths}
-        print(f"probe: seconds per step {per_step} with {len(widths)} run(s) at once; steps {steps}", flush=True)
-        for c in widths:
-            for suffix in (".npz", ".npz.ckpt", ".log"):
-                (args.out / f"probe_w{c}{suffix}").unlink(missing_ok=True)
-    run_all([command(data, c, steps[c], args.out / f"b2u_w{c}.npz", lr=args.lr) for c in widths],
-            [args.out / f"train_w{c}.log" for c in widths])
-    print(f"done in {time.time() - t0:.0f} s", flush=True)
+    output = args.out / (f"b2u_w{args.channels}.npz" if args.recipe == "cpu" else f"b2u_paper_w{args.channels}.npz")
+    command = "python scripts/train_denoiser.py " + " ".join(sys.argv[1:])
+    describe = {"command": command, "recipe": args.recipe, "data": described}
+    last = args.steps if args.stop_after is None else min(args.steps, args.stop_after)
+    marks = sorted({round(args.steps * k / max(1, args.snapshots)) for k in range(1, args.snapshots + 1)})
+    t0 = time.time()
+    for mark in [m for m in marks if m < last] + [last]:
+        summary = train(streams, output, cfg, resume=True, describe=describe, stop_after=mark, device="cpu")
+        if mark != args.steps or args.snapshots:
+            snap = args.out / f"snap_{output.stem}_{mark:06d}.npz"
+            snap.write_bytes(output.read_bytes())
+        print(f"step {summary['steps']}: loss {summary['final_loss']:.4g}, {summary['seconds']:.0f} s of training",
+              flush=True)
+    print(f"wrote {output} in {time.time() - t0:.0f} s", flush=True)
 
 
 if __name__ == "__main__":

@@ -662,8 +662,11 @@ def cmd_train(args) -> int:
     for flag, value in (("--channels", args.channels), ("--steps", args.steps), ("--batch", args.batch),
                         ("--patch", args.patch), ("--window-min", args.window_min),
                         ("--window-max", args.window_max), ("--checkpoint-every", args.checkpoint_every),
-                        ("--stop-after", args.stop_after)):
+                        ("--stop-after", args.stop_after), ("--masks-per-step", args.masks_per_step)):
         _check_int(value, flag)
+    if args.masks_per_step > 16:
+        raise CliError(f"--masks-per-step must be at most 16 (the blind-spot cell has 16 masks); "
+                       f"got {args.masks_per_step}")
     if args.patch % 32:
         raise CliError(f"--patch must be a multiple of 32 (the U-Net halves it 5 times); got {args.patch}")
     if args.window_max < args.window_min:
@@ -689,7 +692,8 @@ def cmd_train(args) -> int:
                for path in args.data]
     cfg = TrainConfig(width=args.channels, steps=args.steps, batch=args.batch, patch=args.patch, lr=args.lr,
                       window_min=args.window_min, window_max=args.window_max,
-                      input_domain=args.input_domain, checkpoint_every=args.checkpoint_every, seed=args.seed)
+                      input_domain=args.input_domain, checkpoint_every=args.checkpoint_every,
+                      masks_per_step=args.masks_per_step, seed=args.seed)
     describe = {"command": "spikeref train " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else "spikeref train",
                 "data": [{"file": Path(s.path).name, "planes": len(s), "height": s.height, "width": s.width}
                          for s in streams]}
@@ -1043,6 +1047,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "firing rates I")
     p.add_argument("--checkpoint", type=Path, default=None, help="checkpoint file (default: OUTPUT.ckpt)")
     p.add_argument("--checkpoint-every", type=int, default=500, help="steps between checkpoints")
+    p.add_argument("--masks-per-step", type=int, default=16,
+                   help="how many of the 16 blind-spot masks (Eq. 10) each image runs per step, drawn at random; "
+                        "the loss is taken on their hidden pixels. 16 is the paper's full volume; 1 is an order of "
+                        "magnitude cheaper per step (the CPU recipe: scripts/train_denoiser.py)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint if it exists")
     p.add_argument("--stop-after", type=int, default=None,
                    help="stop after this many of the --steps schedule's steps and write the weights "

@@ -37,6 +37,64 @@ def test_blind_output_is_the_mask_aware_average_and_visible_has_no_gradient():
     assert blind.requires_grad and not visible.requires_grad
 
 
+def test_blind_output_from_a_subset_of_masks_is_the_full_one_where_known():
+    def model(t):  # a per-image function of the whole masked image: a hidden pixel sees the fill
+        return t * 2.0 + t.mean(dim=(-1, -2), keepdim=True)
+
+    x = torch.rand(3, 1, 8, 12, dtype=torch.float64)
+    full, visible = tr.blind_and_visible(model, x)
+    # every mask drawn, in another order per image: the paper's D(I) everywhere
+    order = torch.stack([torch.randperm(16, generator=torch.Generator().manual_seed(i)) for i in range(3)], 1)
+    blind, vis, known = tr.blind_subset_and_visible(model, x, order)
+    np.testing.assert_allclose(blind.numpy(), full.numpy(), rtol=1e-12)
+    np.testing.assert_array_equal(vis.numpy(), visible.numpy())
+    assert bool((known == 1).all())
+    # two masks per image: D(I) on their hidden pixels (an eighth of the image), 0 elsewhere
+    from spikeref.denoise.blindspot import cell_masks
+
+    subset = torch.tensor([[0, 5, 15], [3, 9, 1]])
+    blind, _, known = tr.blind_subset_and_visible(model, x, subset)
+    masks = cell_masks(8, 12)
+    for n in range(3):
+        hidden = masks[int(subset[0, n])] | masks[int(subset[1, n])]
+        np.testing.assert_array_equal(known[n, 0].numpy(), hidden.astype(float))
+        np.testing.assert_allclose(blind[n, 0].numpy()[hidden], full[n, 0].numpy()[hidden], rtol=1e-12)
+        assert not blind[n, 0].numpy()[~hidden].any()
+    assert known.sum() == 3 * 2 * 8 * 12 / 16
+
+
+def test_the_masked_pixel_loss_is_the_paper_loss_when_every_pixel_is_known():
+    from spikeref.denoise.revisible import revisible_loss_torch
+
+    g = torch.Generator().manual_seed(0)
+    d, f, i = (torch.rand(2, 1, 6, 7, generator=g, dtype=torch.float64) for _ in range(3))
+    plain = revisible_loss_torch(d, f, i, 5.0, 1.0)
+    assert float(revisible_loss_torch(d, f, i, 5.0, 1.0, weight=torch.ones_like(d))) == pytest.approx(float(plain))
+    w = (torch.rand(2, 1, 6, 7, generator=g) < 0.3).double()
+    sel = w.bool()
+    expected = ((d + 5 * f - 6 * i)[sel] ** 2).mean() + ((d - i)[sel] ** 2).mean()
+    assert float(revisible_loss_torch(d, f, i, 5.0, 1.0, weight=w)) == pytest.approx(float(expected))
+
+
+def test_cpu_recipe_trains_resumes_and_is_recorded(tmp_path):
+    streams = [SpikeStream.from_array(_spikes((200, 64, 64), p=0.2, seed=3))]
+    cfg = tr.TrainConfig(width=8, depth=2, steps=40, batch=4, patch=16, lr=3e-3, lam_start=2.0, lam_end=2.0,
+                         masks_per_step=1, checkpoint_every=10)
+    summary = tr.train(streams, tmp_path / "w.npz", cfg, device="cpu", progress=False)
+    assert np.mean(summary["losses"][-8:]) < 0.5 * np.mean(summary["losses"][:4])
+    net = UNet.load(tmp_path / "w.npz")
+    assert net.meta["config"]["masks_per_step"] == 1 and "1 of 16 masks" in net.meta["method"]
+    tr.train(streams, tmp_path / "r.npz", cfg, device="cpu", progress=False, stop_after=17)
+    tr.train(streams, tmp_path / "r.npz", cfg, device="cpu", progress=False, resume=True)
+    again = UNet.load(tmp_path / "r.npz")
+    for key in net.params:
+        np.testing.assert_array_equal(net.params[key], again.params[key], err_msg=key)
+    with pytest.raises(ValueError, match="masks_per_step"):
+        tr.TrainConfig(masks_per_step=17)
+    with pytest.raises(ValueError, match="masks_per_step"):
+        tr.TrainConfig(masks_per_step=0)
+
+
 @pytest.mark.parametrize("file_width, col_offset", [(84, 0), (96, 8), (92, 3)])
 def test_packed_crops_count_like_the_array(tmp_path, file_width, col_offset):
     arr = _spikes()

@@ -51,12 +51,24 @@ def revisible_loss(blind, visible, noisy, lam: float, eta: float = 1.0) -> float
     return float(rev + eta * reg)
 
 
-def revisible_loss_torch(blind, visible, noisy, lam: float, eta: float = 1.0):
-    """Eq. 12 in PyTorch, with the stop-gradient on the visible term (``visible.detach()``)."""
+def revisible_loss_torch(blind, visible, noisy, lam: float, eta: float = 1.0, weight=None):
+    """Eq. 12 in PyTorch, with the stop-gradient on the visible term (``visible.detach()``).
+
+    ``weight`` (optional, broadcastable to ``blind``, 0 or 1): take both means over the pixels
+    where it is 1 only — the pixels whose blind value ``D(I)`` was computed, when a training step
+    runs only some of the masks (:attr:`spikeref.denoise.train.TrainConfig.masks_per_step`).
+    ``weight=None`` and an all-ones weight give the same value.
+    """
     import torch
 
-    rev = torch.mean((blind + lam * visible.detach() - (lam + 1.0) * noisy) ** 2)
-    reg = torch.mean((blind - noisy) ** 2)
+    if weight is None:
+        rev = torch.mean((blind + lam * visible.detach() - (lam + 1.0) * noisy) ** 2)
+        reg = torch.mean((blind - noisy) ** 2)
+        return rev + eta * reg
+    weight = torch.broadcast_to(weight, blind.shape).to(blind.dtype)
+    total = weight.sum().clamp(min=1.0)
+    rev = (weight * (blind + lam * visible.detach() - (lam + 1.0) * noisy) ** 2).sum() / total
+    reg = (weight * (blind - noisy) ** 2).sum() / total
     return rev + eta * reg
 
 

@@ -17,10 +17,19 @@ One step:
    noise), each a one-channel training image; random flips and 90° turns;
 3. Eq. 10–11: the masked volume Ω (16 masks, hidden pixels filled by the weighted mean of
    their 8 neighbours), the network on every masked image, mask-aware averaging Φ → ``D(I)``;
-   the network on the visible image → ``f(I)`` (without gradient: the stop-gradient of Eq. 12);
+   the network on the visible image → ``f(I)`` (without gradient: the stop-gradient of Eq. 12).
+   With ``masks_per_step = k < 16`` (not in the paper; the CPU recipe), each image runs only
+   ``k`` of its 16 masked versions, drawn at random, and ``D(I)`` is known on their hidden
+   pixels only;
 4. Eq. 12: ``mean((D + λ f − (λ+1) I)²) + η mean((D − I)²)``, ``η = 1``, ``λ`` rising linearly
-   from 2 to 20 over the run (on counts, each image's terms are divided by its ``W``); Adam,
-   learning rate on a cosine from ``lr`` to ``lr/100``.
+   from 2 to 20 over the run (on counts, each image's terms are divided by its ``W``; with
+   ``k < 16`` both means run over the hidden pixels of the drawn masks — with ``k = 16`` that
+   is every pixel, the paper's loss); Adam, learning rate on a cosine from ``lr`` to ``lr/100``.
+
+Cost: a step runs the network with gradient on ``k·4·batch`` images and without on
+``4·batch``; the backward pass dominates, so ``k = 1`` costs an order of magnitude less than
+``k = 16`` for the same crops (``docs/results.md``, "Training on two cores": the CPU recipe of
+``scripts/train_denoiser.py``, which also halves the crop side, 27× less per step).
 
 A checkpoint (model, optimiser, step, random state, loss log) is written atomically every
 ``checkpoint_every`` steps and at the end; :func:`train` given ``resume=True`` continues from it
@@ -48,7 +57,8 @@ from spikeref.denoise.unet import UNetSpec
 #: What the network can be trained on (:attr:`TrainConfig.input_domain`).
 INPUT_DOMAINS = ("count", "rate")
 
-__all__ = ["TrainConfig", "INPUT_DOMAINS", "CropSampler", "masked_volume_torch", "blind_and_visible", "train"]
+__all__ = ["TrainConfig", "INPUT_DOMAINS", "CropSampler", "masked_volume_torch", "blind_and_visible",
+           "blind_subset_and_visible", "train"]
 
 
 @dataclass(frozen=True)
@@ -83,6 +93,10 @@ class TrainConfig:
         :class:`~spikeref.denoise.denoiser.Denoiser` multiplies by the exposure and divides back.
     checkpoint_every : int
         Steps between checkpoints.
+    masks_per_step : int
+        How many of the ``cell²`` masks of Eq. 10 each image runs per step (drawn at random,
+        distinct); the loss is taken on their hidden pixels.  ``cell²`` (16, the default) is
+        the paper's full Ω; 1 is the CPU recipe (an order of magnitude cheaper per step for the same crops).
     seed : int
         Seed of the crops, augmentations and initial weights.
     """
@@ -101,11 +115,12 @@ class TrainConfig:
     cell: int = 4
     input_domain: str = "count"
     checkpoint_every: int = 500
+    masks_per_step: int = 16
     seed: int = 0
 
     def __post_init__(self):
         for name in ("width", "depth", "steps", "batch", "patch", "window_min", "window_max", "cell",
-                     "checkpoint_every"):
+                     "checkpoint_every", "masks_per_step"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
                 raise ValueError(f"{name} must be a positive integer; got {v!r}")
@@ -119,6 +134,8 @@ class TrainConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number ≥ 0; got {v!r}")
+        if self.masks_per_step > self.cell**2:
+            raise ValueError(f"masks_per_step ({self.masks_per_step}) must be ≤ cell² = {self.cell**2}")
         UNetSpec(width=self.width, depth=self.depth)  # validates the shape
 
     @property
@@ -234,6 +251,44 @@ def masked_volume_torch(x: torch.Tensor, cell: int = 4) -> tuple[torch.Tensor, t
     return volume, masks
 
 
+def blind_subset_and_visible(model, x: torch.Tensor, subset: torch.Tensor, cell: int = 4):
+    """``D(I)`` from some of the masks, where known (with gradient), and ``f(I)`` (without).
+
+    Parameters
+    ----------
+    model : TorchUNet
+    x : (N, 1, H, W) tensor
+    subset : (k, N) integer tensor
+        For image ``n``, the indices (into :func:`spikeref.denoise.blindspot.cell_masks`) of
+        the ``k`` distinct masks to run.
+    cell : int
+
+    Returns
+    -------
+    blind, visible, known : (N, 1, H, W) tensors
+        ``blind`` holds the masked network's output on the hidden pixels of the drawn masks
+        (Eq. 11's average over the masks that hide a pixel — one mask each — and 0 elsewhere);
+        ``known`` is 1 on those pixels, 0 elsewhere.  With every mask drawn (``k = cell²``),
+        ``blind`` is :func:`blind_and_visible`'s ``D(I)`` and ``known`` is all ones.
+    """
+    h, w = x.shape[-2:]
+    kernel = torch.as_tensor(FILL_KERNEL, dtype=x.dtype, device=x.device)[None, None]
+    num = F.conv2d(x, kernel, padding=1)
+    den = F.conv2d(torch.ones((1, 1, h, w), dtype=x.dtype, device=x.device), kernel, padding=1)
+    fill = num / den
+    masks = torch.as_tensor(cell_masks(h, w, cell), device=x.device)[subset][:, :, None]  # (k, N, 1, H, W)
+    volume = torch.where(masks, fill[None], x[None])
+    k, n = volume.shape[:2]
+    flat = volume.reshape((k * n,) + x.shape[1:]).contiguous(memory_format=torch.channels_last)
+    out = model(flat).reshape(volume.shape)
+    m = masks.to(out.dtype)
+    known = m.sum(0)
+    blind = (out * m).sum(0) / known.clamp(min=1.0)
+    with torch.no_grad():
+        visible = model(x.contiguous(memory_format=torch.channels_last)).contiguous()
+    return blind, visible, known
+
+
 def blind_and_visible(model, x: torch.Tensor, cell: int = 4) -> tuple[torch.Tensor, torch.Tensor]:
     """``D(I)`` (Eq. 10–11, with gradient) and ``f(I)`` (visible, without gradient) for ``(N, 1, H, W)``."""
     volume, masks = masked_volume_torch(x, cell)
@@ -339,13 +394,19 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         for group in opt.param_groups:
             group["lr"] = _learning_rate(cfg, step)
         x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
-        blind, visible = blind_and_visible(model, x, cfg.cell)
+        known = None
+        if cfg.masks_per_step < cfg.cell**2:
+            subset = np.argsort(rng.random((x.shape[0], cfg.cell**2)), axis=1)[:, : cfg.masks_per_step]
+            blind, visible, known = blind_subset_and_visible(model, x, torch.from_numpy(subset.T.copy()).to(dev),
+                                                             cfg.cell)
+        else:
+            blind, visible = blind_and_visible(model, x, cfg.cell)
         if cfg.input_domain == "count":
             # Eq. 12 per image divided by W: count-domain errors grow with W, their noise does not;
             # 1/W sits between the two so that no octave of W swamps the gradient
             s = windows.rsqrt()[:, None, None, None]
             blind, visible, x = blind * s, visible * s, x * s
-        loss = revisible_loss_torch(blind, visible, x, lam, cfg.eta)
+        loss = revisible_loss_torch(blind, visible, x, lam, cfg.eta, weight=known)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
@@ -366,7 +427,9 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
     summary = {"steps": step, "final_loss": float(np.mean(losses[-tail:])), "seconds": round(seconds, 1),
                "losses": per_percent}
     meta = {
-        "method": "Blind2Unblind re-visible loss (Eq. 12), blind-spot volume (Eq. 10-11)",
+        "method": "Blind2Unblind re-visible loss (Eq. 12), blind-spot volume (Eq. 10-11)"
+                  + ("" if cfg.masks_per_step == cfg.cell**2 else
+                     f", {cfg.masks_per_step} of {cfg.cell**2} masks per image and step, loss on their hidden pixels"),
         "config": asdict(cfg),
         "input_domain": cfg.input_domain,
         "steps_run": step,

@@ -1,0 +1,97 @@
+"""Validation PSNR against training wall time: score weight snapshots in denoise mode.
+
+Each ``*.npz`` weight file given (e.g. the snapshots ``scripts/train_denoiser.py --snapshots``
+writes, whose metadata hold ``train_seconds``) is scored the way ``scripts/eval_guard.py``
+scores a denoiser — the network in visible mode on the four Bayer planes of one W-plane window
+(Eq. 4), Ψ, PSNR in linear RGB against the exact ground truth after a least-squares gain per
+channel, 8-pixel border left out, mean over windows (planes 300 and 420 on) and scenes — without
+the guard, so that the curve shows the network itself.
+
+The scenes are the benchmark's (``spikeref/bench/scenes/``, seed 0): the *tuning* set. The
+held-out sets (``scripts/heldout_scenes/``, ``scripts/denoiser_scenes/heldout_*.toml``) are never
+read here.
+
+    python scripts/train_curve.py out/run/*.npz [--windows 10,50] [--scenes astronaut_pan,...] [--csv F]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+from pathlib import Path
+
+import numpy as np
+
+BORDER = 8
+STARTS = (300, 420)
+DEFAULT_SCENES = "translation,hdr,astronaut_pan,coffee_spin,occlusion"
+
+
+def score(truth: np.ndarray, image: np.ndarray) -> float:
+    """PSNR after a least-squares gain per channel, border left out (``scripts/eval_guard.py``'s)."""
+    from spikeref.metrics import psnr_after_gain
+
+    crop = (slice(BORDER, -BORDER), slice(BORDER, -BORDER))
+    return psnr_after_gain(np.asarray(truth, np.float64)[crop], np.asarray(image, np.float64)[crop],
+                           float(truth.max()), per_channel=True)
+
+
+def cases(scene_keys, windows):
+    """``(scene, W, planes (4, h, w) rates, truth (H, W, 3), cfa)`` for every window scored."""
+    from spikeref.accumulate import accumulate
+    from spikeref.bayer import bayer_planes
+    from spikeref.bench.runner import bench_scenes
+    from spikeref.simulate.simulator import ground_truth
+
+    out = []
+    for sc in bench_scenes(tuple(scene_keys)):
+        sc.simulate(0)
+        for w in windows:
+            for start in STARTS:
+                planes = bayer_planes(accumulate(sc.stream, w, start=start, count=1)[0])
+                truth = ground_truth(sc.scene, w, planes=start + w, start=start)[0]
+                out.append((sc.key, w, planes, truth, sc.stream.cfa))
+        sc.stream = None
+    return out
+
+
+def main() -> None:
+    from spikeref.bayer import bayer_mosaic, demosaic_bilinear
+    from spikeref.denoise.denoiser import Denoiser
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("weights", type=Path, nargs="+")
+    ap.add_argument("--windows", default="10,50")
+    ap.add_argument("--scenes", default=DEFAULT_SCENES)
+    ap.add_argument("--csv", type=Path, default=None, help="append rows (file, seconds, steps, W, PSNR) here")
+    args = ap.parse_args()
+    windows = [int(w) for w in args.windows.split(",")]
+    data = cases(args.scenes.split(","), windows)
+    rows = []
+    identity = {w: np.mean([score(t, demosaic_bilinear(bayer_mosaic(p), cfa)) for _, ww, p, t, cfa in data if ww == w])
+                for w in windows}
+    print("identity (TFP(W)): " + ", ".join(f"W={w} {v:.2f}" for w, v in identity.items()))
+    for path in args.weights:
+        den = Denoiser.load(path, guard="off", shrink=False)
+        meta = den.unet.meta
+        res = {}
+        for _, w, planes, truth, cfa in data:
+            out = den(planes, window=w)
+            image = demosaic_bilinear(bayer_mosaic(np.asarray(out, np.float32)), cfa)
+            res.setdefault(w, []).append(score(truth, image))
+        secs, steps = meta.get("train_seconds", float("nan")), meta.get("steps_run", -1)
+        line = ", ".join(f"W={w} {np.mean(v):.2f}" for w, v in res.items())
+        print(f"{path.name}: {steps} steps, {secs} s: {line}", flush=True)
+        for w, v in res.items():
+            rows.append((path.name, secs, steps, w, round(float(np.mean(v)), 3)))
+    if args.csv:
+        new = not args.csv.exists()
+        with open(args.csv, "a", newline="") as fh:
+            writer = csv.writer(fh)
+            if new:
+                writer.writerow(("file", "train_seconds", "steps", "W", "psnr_db"))
+            writer.writerows(rows)
+
+
+if __name__ == "__main__":
+    main()
