@@ -12,6 +12,7 @@ held-out sets (``scripts/heldout_scenes/``, ``scripts/denoiser_scenes/heldout_*.
 read here.
 
     python scripts/train_curve.py out/run/*.npz [--windows 10,50] [--scenes astronaut_pan,...] [--csv F]
+    python scripts/train_curve.py --plot docs/train_curve.png --csv F      # the figure from the rows in F
 """
 
 from __future__ import annotations
@@ -60,11 +61,15 @@ def main() -> None:
     from spikeref.denoise.denoiser import Denoiser
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("weights", type=Path, nargs="+")
+    ap.add_argument("weights", type=Path, nargs="*")
     ap.add_argument("--windows", default="10,50")
     ap.add_argument("--scenes", default=DEFAULT_SCENES)
     ap.add_argument("--csv", type=Path, default=None, help="append rows (file, seconds, steps, W, PSNR) here")
+    ap.add_argument("--plot", type=Path, default=None, help="draw PSNR against training seconds from --csv (PNG)")
     args = ap.parse_args()
+    if args.plot:
+        plot(args.csv, args.plot)
+        return
     windows = [int(w) for w in args.windows.split(",")]
     data = cases(args.scenes.split(","), windows)
     rows = []
@@ -91,6 +96,33 @@ def main() -> None:
             if new:
                 writer.writerow(("file", "train_seconds", "steps", "W", "psnr_db"))
             writer.writerows(rows)
+
+
+def plot(table: Path, out: Path) -> None:
+    """PSNR against training wall time, one line per recipe (from the snapshot file names) and W."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = list(csv.DictReader(open(table)))
+    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=110)
+    for recipe, label, style in (("paper", "paper recipe (16 masks, 128² crops)", "s--"),
+                                 ("cpu", "CPU recipe (1 mask, 64² crops)", "o-")):
+        for w, colour in (("10", "C0"), ("50", "C1")):
+            pts = sorted((float(r["train_seconds"]), float(r["psnr_db"])) for r in rows
+                         if r["W"] == w and r["file"].startswith("snap_")
+                         and ("_paper_" in r["file"]) == (recipe == "paper"))
+            if pts:
+                ax.plot([p[0] / 60 for p in pts], [p[1] for p in pts], style, color=colour, label=f"{label}, W = {w}")
+    ax.set_xlabel("training wall time on 2 CPU cores (min)")
+    ax.set_ylabel("PSNR, denoise mode (dB)")
+    ax.set_title("Validation (benchmark scenes) against training time", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out)
+    print(f"wrote {out}")
 
 
 if __name__ == "__main__":
