@@ -13,7 +13,8 @@ from spikeref.align import (
     flow_from_tiles, gaussian_pyramid, local_noise, luma,
 )
 from spikeref.oracles.align import (
-    align_oracle, align_tiles_oracle, flow_from_tiles_oracle, gaussian_pyramid_oracle, nearest_tiles_oracle,
+    align_oracle, align_tiles_oracle, estimate_noise_correlation_oracle, estimate_noise_oracle, flow_from_tiles_oracle,
+    gaussian_pyramid_oracle, level_noise_factors_oracle, local_noise_oracle, nearest_tiles_oracle,
     quadratic_offset_oracle,
 )
 from spikeref.warp import warp_bilinear
@@ -473,6 +474,98 @@ def test_level_noise_factors_match_white_noise_through_the_pyramid():
         inner = pyr[level][8 >> level or 1:-(8 >> level or 1), 8 >> level or 1:-(8 >> level or 1)]
         assert inner.var() == pytest.approx(f, rel=0.1)
         assert s >= 1.0
+
+
+#: Two pyramids for the oracle comparisons: integer vectors (compared exactly), and three levels with the
+#: sub-pixel fit and small coarse radii (so that the choice among the upsampling candidates at level 1, where
+#: the zero candidate's correction uses the L1 formula under an L2 search, decides some vectors).
+NOISE_AWARE_SMALL = AlignParams(levels=2, tile_by_step=(8, 4), coarse_tile=4, search_radius=(1, 2), subpixel=False,
+                                prefer_centre=3.0)
+NOISE_AWARE_THREE = AlignParams(levels=3, tile_by_step=(16, 8), coarse_tile=4, search_radius=(1, 1, 2),
+                                prefer_centre=2.0)
+
+
+def noisy_pair(shape, seed, shift=(0, 0), rho=-0.5, sigma=0.03):
+    """A smooth texture and a copy moved by ``shift`` (periodic), with noise of std ``sigma`` correlated ``rho``
+    between the two images at the same pixel; ``shift = None``: two unrelated uniform random images;
+    ``"counts"``: two unrelated Poisson counts (whole numbers: distances tie exactly)."""
+    rng = np.random.default_rng(seed)
+    if shift is None:
+        return rng.random(shape, dtype=np.float32), rng.random(shape, dtype=np.float32)
+    if shift == "counts":
+        return rng.poisson(2.0, shape).astype(np.float32), rng.poisson(2.0, shape).astype(np.float32)
+    img = 0.4 + texture(shape, sigma=2.0, seed=seed)
+    moved = img if shift == (0, 0) else fourier_shift(img, shift)
+    return anticorrelated_pair(shape, sigma, seed + 100, rho=rho, scene=img)[0], \
+        anticorrelated_pair(shape, sigma, seed + 100, rho=rho, scene=moved)[1]
+
+
+GIVEN = {"noise": 9e-4, "correlation": -0.5}
+
+
+@pytest.mark.parametrize("name, seed, shift, rho, kw", [
+    ("still, anti-correlated, noise estimated", 1, (0, 0), -0.5, {}),
+    ("still, anti-correlated, noise and ρ given", 2, (0, 0), -0.5, GIVEN),
+    ("integer shift, anti-correlated, noise estimated", 3, (2, -3), -0.5, {}),
+    ("one-pixel shift, anti-correlated, noise and ρ given", 0, (1, 1), -0.5, GIVEN),
+    ("sub-pixel shift, independent, a noise map given", 4, (0.5, -1.25), 0.0, {"noise": "map", "correlation": 0.0}),
+    ("positive correlation given (no bias)", 5, (1, 1), 0.4, {"noise": 9e-4, "correlation": 0.4}),
+    ("ρ = −0.9 given (clipped to −½)", 0, (1, 1), -0.5, {"noise": 9e-4, "correlation": -0.9}),
+    ("unrelated images, noise estimated", 0, None, 0.0, {}),
+    ("unrelated images, noise and ρ given", 0, None, 0.0, GIVEN),
+    ("other unrelated images, noise and ρ given", 3, None, 0.0, GIVEN),
+    ("whole-number counts, no noise: exact ties", 0, "counts", 0.0, {"noise": 0.0, "correlation": 0.0}),
+    ("no noise: the plain search plus zero", 7, (2, -3), -0.5, {"noise": 0.0, "correlation": 0.0}),
+])
+def test_noise_aware_search_matches_the_oracle(name, seed, shift, rho, kw):
+    # the literal transcription of docs/spec/align.md#noise-aware-search (spikeref/oracles/align.py)
+    for params, shape in ((NOISE_AWARE_SMALL, (24, 32)), (NOISE_AWARE_THREE, (40, 48))):
+        ref, alt = noisy_pair(shape, seed, shift, rho)
+        given = dict(kw)
+        if given.get("noise") == "map":
+            given["noise"] = np.random.default_rng(seed).uniform(0.0, 2e-3, shape)
+        for step in (0, 1):
+            vectors, tile = align_tiles(ref, alt, step, params, **given)
+            expected, tile_o = align_tiles_oracle(ref, alt, step, params, **given)
+            assert tile == tile_o and vectors.shape == expected.shape, name
+            if params.subpixel:
+                np.testing.assert_allclose(vectors, expected, rtol=0, atol=1e-5, err_msg=name)
+            else:
+                np.testing.assert_array_equal(vectors, expected, err_msg=name)
+        np.testing.assert_allclose(align(ref, alt, 1, params, **given), align_oracle(ref, alt, 1, params, **given),
+                                   rtol=0, atol=1e-5, err_msg=name)
+
+
+def test_noise_aware_oracle_sees_what_the_option_changes():
+    # the cases above are not vacuous: on them the noise-aware search differs from the plain one, keeps zero
+    # on the still pair and follows the integer shift where the texture is
+    ref, alt = noisy_pair((40, 48), 7, (0, 0), -0.5)
+    plain = align_tiles_oracle(ref, alt, 0, AlignParams(**{**NOISE_AWARE_SMALL.__dict__, "prefer_centre": 0.0}))[0]
+    aware = align_tiles_oracle(ref, alt, 0, NOISE_AWARE_SMALL)[0]
+    assert moved(plain) > 0.2 and moved(aware) < 0.1
+    ref, alt = noisy_pair((40, 48), 8, (2, -3), -0.5)
+    aware = align_tiles_oracle(ref, alt, 0, NOISE_AWARE_SMALL)[0]
+    assert np.mean(np.all(aware == (2, -3), axis=-1)) > 0.5
+
+
+def test_noise_estimators_match_their_oracles():
+    rng = np.random.default_rng(21)
+    img = (0.3 + 0.05 * texture((30, 41), seed=3) + 0.02 * rng.standard_normal((30, 41))).astype(np.float32)
+    other = (img + 0.03 * rng.standard_normal(img.shape)).astype(np.float32)
+    assert estimate_noise(img) == pytest.approx(estimate_noise_oracle(img), rel=1e-12)
+    np.testing.assert_allclose(local_noise(img), local_noise_oracle(img), rtol=1e-12, atol=0)
+    np.testing.assert_allclose(local_noise(img, box=5), local_noise_oracle(img, box=5), rtol=1e-12, atol=0)
+    assert estimate_noise_correlation(img, other) == pytest.approx(estimate_noise_correlation_oracle(img, other),
+                                                                   rel=1e-12)
+    flat = np.full((9, 9), 0.5, np.float32)
+    assert estimate_noise_correlation_oracle(flat, flat) == 0.0 == estimate_noise_correlation(flat, flat)
+    from spikeref.align import _level_noise_factors
+
+    # the values docs/spec/align.md prints
+    spec = [(1.0, 1.0), (0.07476806640625, 1.7434777176176595), (0.015245858579874039, 2.101252113426672),
+            (0.0036432665840493428, 2.1924949257570665)]
+    np.testing.assert_allclose(_level_noise_factors(4), spec, rtol=1e-14)
+    np.testing.assert_allclose(level_noise_factors_oracle(4), spec, rtol=1e-14)
 
 
 def test_noise_aware_validation():
