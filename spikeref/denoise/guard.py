@@ -44,7 +44,10 @@ Interpretations (the noise of spike counts):
 * ``N`` is the ``(2·radius + 1)²`` box around each pixel (half-sample symmetric border,
   SciPy's ``reflect``), :data:`DEFAULT_RADIUS` = 8 plane pixels; where ``Σ_N (f − y)² = 0``
   (the network changed nothing) ``α = 1``.
-* ``ε = 0.05 σ`` of the plane; where ``σ = 0`` (no noise at all) ``α = 0``: nothing is removed.
+* ``σ²`` per pixel is ``max(σ_c², q(f(y)))``: the plane's :func:`noise_sigma` squared and, when the exposure
+  ``window`` is given (the pipeline), the count's :func:`quantisation_variance` at the network's output.
+  The probe's step is ``ε = 0.05 · √(mean over the plane of σ²)`` (:func:`probe_step` of the root mean
+  variance); where ``σ² = 0`` everywhere (no noise at all) ``α = 0``: nothing is removed.
 
 The literal oracle is :func:`spikeref.oracles.guard.sure_blend_oracle`.
 """
