@@ -409,6 +409,8 @@ def _stopped(args, exc: BaseException, exr_dir: Path | None, frames: range, writ
 
 
 def cmd_reconstruct(args) -> int:
+    import time
+
     from tqdm import tqdm
 
     from spikeref.io.exr import read_exr
@@ -420,10 +422,14 @@ def cmd_reconstruct(args) -> int:
         video, exr_dir = Path("reconstruction.mp4"), Path("reconstruction_exr")
     if args.resume and exr_dir is None:
         raise CliError("--resume needs --exr-dir (the frames already written are found there)")
-    make = ReconstructParams.paper if args.paper else ReconstructParams
+    if args.paper and args.preset not in (None, "paper"):
+        raise CliError(f"--paper is --preset paper; give one of --paper and --preset {args.preset}")
+    preset = "paper" if args.paper else (args.preset or "default")
+    args.paper = preset == "paper"
     chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp),
                                 ("demosaic", args.demosaic)) if v is not None}
-    params = make(window=args.window, K=args.K, L=args.L, mode=args.mode, align=not args.no_align, **chosen)
+    params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,
+                                      align=not args.no_align, **chosen)
     _check_float(args.fps, "--fps")
     _check_video(video)
     _check_output_dir(exr_dir, "--exr-dir")
@@ -431,6 +437,8 @@ def cmd_reconstruct(args) -> int:
         if args.no_shrink or args.guard is not None or args.paper:
             raise CliError("--no-shrink, --guard and --paper are not passed to Dask workers yet; run without "
                            "--workers/--scheduler")
+        if args.profile:
+            raise CliError("--profile times one process; run without --workers/--scheduler")
         return _reconstruct_on_dask(args, params, video, exr_dir)
     stream = open_input(args)
     guard = args.guard or ("off" if args.paper else "sure")
@@ -450,10 +458,12 @@ def cmd_reconstruct(args) -> int:
           f" → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
           f"{args.mode}{', no alignment' if args.no_align else ''}"
           f"{', the paper' + chr(39) + 's procedure' if args.paper else ''}"
+          f"{', the fast preset' if preset == 'fast' else ''}"
           f"{', flow on ' + params.flow_frames + ' frames, ' + params.warp + ' warp' if not args.no_align else ''}"
           f", guard {guard})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
     written = len(done)  # whole EXR frames of a:b in exr_dir, for the line of an interrupted or failed run
+    t_loop = time.perf_counter()
     try:
         with FrameSink(video, exr_dir, fps=args.fps, half=args.half) as sink, \
                 tqdm(total=b - a, desc="reconstruct", unit="frame", disable=None) as bar:
@@ -465,16 +475,22 @@ def cmd_reconstruct(args) -> int:
                         bar.update(1)
                     continue
                 for frame in rec.frames(lo, hi):
-                    sink.add(frame.index, frame.rgb)
+                    with rec.timed("write"):
+                        sink.add(frame.index, frame.rgb)
                     written += exr_dir is not None
                     bar.update(1)
     except (KeyboardInterrupt, OSError) as exc:  # the frames on disk are whole (atomic writes): say how to go on
         if exr_dir is not None and not exr_dir.is_dir():
             written = 0  # the folder itself is gone
         raise _stopped(args, exc, exr_dir, frames, written) from exc
+    loop_s = time.perf_counter() - t_loop  # includes closing the video (its last frames are encoded there)
     for path in (video, exr_dir):
         if path is not None:
             print(f"wrote {path}", file=sys.stderr)
+    if args.profile:
+        print(f"where the time went (frames made here: {rec.frames_made}; 'write' = EXR and video; "
+              f"'other' = the rest of the loop, closing the video included):", file=sys.stderr)
+        print(rec.profile(total=loop_s).table(), file=sys.stderr)
     return 0
 
 
@@ -941,6 +957,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the paper's procedure exactly: flows on the denoised frames, the plain HDR+ search, "
                         "Eq. 14-15 step by step, the network's D(I) without guard or shrinkage (the defaults go "
                         "beyond the paper where the stage ladder measured a gain: docs/results.md)")
+    p.add_argument("--preset", choices=["default", "fast", "paper"], default=None,
+                   help="named settings (options given with it win): default (the defaults below); fast (the "
+                        "defaults with --warp chained: only the step-0 flows estimated and composed, ≥ 8 frames/s "
+                        "at 250×400 on two cores and within 0.5 dB of the defaults on the benchmark scenes, "
+                        "docs/results.md); paper (= --paper)")
+    p.add_argument("--profile", action="store_true",
+                   help="after the run, print to stderr where the time went: seconds, %% of the run's time and "
+                        "milliseconds per frame for accumulate (Eq. 4), network (the U-Net's passes), guard (the "
+                        "rest of the denoiser), align, warp (Eq. 14-15), demosaic, write (EXR/video) and other")
     p.add_argument("--guard", choices=["sure", "off"], default=None,
                    help="sure (default): blend the network's output with its input by Stein's unbiased risk "
                         "estimate, per pixel, from the data's own noise level (one more network pass; not in the "
@@ -984,7 +1009,8 @@ def build_parser() -> argparse.ArgumentParser:
                                      "(table, CSV, Pareto plot, contact sheet)",
                        description="Run TFP (W=10, W=100), TFI, TFSTP and the progressive warping over its "
                                    "settings (denoiser mode visible/mixed/blind, L = 0…3, K = 3, 5, W = 10, 20 "
-                                   "planes, alignment on/off, flow on denoised or smoothed frames) on the "
+                                   "planes, alignment on/off, flow on denoised or smoothed frames, and the "
+                                   "fast preset, reconstruct --preset fast) on the "
                                    "versioned benchmark scenes (static, translation, fan, hdr, low_light, and "
                                    "the photographs astronaut_pan, coffee_spin, occlusion with the test extra; "
                                    "128×128 or 128×160 pixels, 800 planes = 40 ms, "
@@ -992,7 +1018,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "against the 2000-FPS ground truth (PSNR, SSIM, PU21-PSNR, PU21-SSIM) and "
                                    "timed in seconds per output frame in this process. Writes results.csv, "
                                    "results.md, contact_sheet.png and (with spikeref[plot]) pareto.png. "
-                                   "The full grid (50 settings) takes ~10 min on 2 cores; --quick (14 settings, "
+                                   "The full grid (51 settings) takes ~10 min on 2 cores; --quick (15 settings, "
                                    "2 frames per scene) under 3 min.",
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("--quick", action="store_true",

@@ -83,7 +83,7 @@ from spikeref.warp import warp_average, warp_spike_windows
 
 __all__ = ["ReconstructParams", "ReconstructedFrame", "Reconstructor", "reconstruct", "frame_range",
            "support_planes", "exposure_planes", "FLOW_FRAMES", "FLOW_SMOOTHING_SIGMA", "WARPS", "DEFAULT_PREFER_CENTRE",
-           "flow_luma"]
+           "flow_luma", "PRESETS", "STAGES", "StageProfile"]
 
 #: What the flow of each step is estimated on: ``"denoised"`` — the 2×2 luma of ``D(I_l)``, as
 #: Fig. 3(b) — or ``"smoothed"`` — the 2×2 luma of ``I_l`` itself, smoothed by a Gaussian.
@@ -99,6 +99,15 @@ WARPS = ("progressive", "composed", "chained")
 #: 2026-11-23): 0.7 and 1 tie on the mean PSNR over W/K/L = 10/3/3, 10/5/2, 20/5/2, 20/3/3
 #: (0.01 dB below the denoised flow frames), and 1 loses least at its worst setting (0.09 dB).
 FLOW_SMOOTHING_SIGMA = 1.0
+#: Named settings of :meth:`ReconstructParams.preset` (``spikeref reconstruct --preset``):
+#: ``"default"`` (the defaults), ``"fast"`` (:meth:`ReconstructParams.fast`), ``"paper"``
+#: (:meth:`ReconstructParams.paper`).
+PRESETS = ("default", "fast", "paper")
+#: The stages of :attr:`Reconstructor.timings`, in pipeline order: Eq. 4 (reading the stream
+#: included), the U-Net's forward passes, the rest of the denoiser (its guard, shrinkage and the
+#: blind-spot bookkeeping), the alignment (flow frames and the HDR+ search), the warps (Eq. 14–15
+#: or the composed warp), the demosaic Ψ, and writing the frame (timed by the caller, e.g. the CLI).
+STAGES = ("accumulate", "network", "guard", "align", "warp", "demosaic", "write")
 
 
 @dataclass(frozen=True)
@@ -202,6 +211,33 @@ class ReconstructParams:
         base.update(kw)
         return cls(**base)
 
+    @classmethod
+    def fast(cls, **kw) -> "ReconstructParams":
+        """The speed preset: the defaults with ``warp="chained"``; ``kw`` sets any other field.
+
+        Only the step-0 flows are estimated and composed (no frame or flow of steps ``1 … L−1``
+        is made), so at W/K/L = 10/3/3 a frame costs one flow search per window instead of ``L``
+        and still one denoiser pass (plus the guard's probe).  Measured in ``docs/results.md``
+        (section "Speed"): ≥ 8 frames/s at 250×400 on two cores, within 0.5 dB of the defaults on
+        the benchmark scenes; on fast motion the composed step flows of the defaults do better.
+        """
+        base = dict(warp="chained")
+        base.update(kw)
+        return cls(**base)
+
+    @classmethod
+    def preset(cls, name: str, **kw) -> "ReconstructParams":
+        """The named preset of :data:`PRESETS` (``"default"``, ``"fast"``, ``"paper"``) with ``kw`` set.
+
+        Raises
+        ------
+        ValueError
+            If ``name`` is not one of :data:`PRESETS`.
+        """
+        if name not in PRESETS:
+            raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
+        return {"default": cls, "fast": cls.fast, "paper": cls.paper}[name](**kw)
+
 
 def exposure_planes(window: int, K: int, level: int) -> float:
     """Noise-equivalent window of ``I_l``, in planes: what a count-domain denoiser is told.
@@ -280,6 +316,61 @@ class ReconstructedFrame:
     flows: dict = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class StageProfile:
+    """Where the time of a reconstruction went, per stage (:meth:`Reconstructor.profile`).
+
+    Attributes
+    ----------
+    seconds : dict
+        ``{stage: seconds}`` for every stage of :data:`STAGES`, plus ``"other"``: the rest of
+        ``total`` (ring bookkeeping, stacking windows, the caller's loop), never negative.
+    frames : int
+        Output frames made.
+    total : float
+        Wall seconds the breakdown accounts for.
+    """
+
+    seconds: dict
+    frames: int
+    total: float
+
+    @property
+    def outside_network(self) -> float:
+        """Share of ``total`` outside the U-Net's forward passes (0 … 1; NaN when ``total`` is 0)."""
+        if self.total <= 0:
+            return float("nan")
+        return 1.0 - self.seconds.get("network", 0.0) / self.total
+
+    def table(self) -> str:
+        """A plain-text table: stage, seconds, % of the frame time, milliseconds per frame."""
+        n = max(self.frames, 1)
+        pct = (lambda v: 100.0 * v / self.total) if self.total > 0 else (lambda v: float("nan"))
+        lines = [f"{'stage':<11} {'seconds':>9} {'% of time':>9} {'ms/frame':>9}"]
+        for stage, v in self.seconds.items():
+            lines.append(f"{stage:<11} {v:9.3f} {pct(v):8.1f}% {1e3 * v / n:9.1f}")
+        lines.append(f"{'total':<11} {self.total:9.3f} {pct(self.total):8.1f}% {1e3 * self.total / n:9.1f}")
+        rate = f"{self.frames / self.total:.2f} frames/s" if self.total > 0 else "no time measured"
+        lines.append(f"{self.frames} frames, {rate}; outside the network: {100 * self.outside_network:.1f} %")
+        return "\n".join(lines)
+
+
+class _TimedNetwork:
+    """A U-Net that adds the seconds of its forward passes to a stage of a :class:`Reconstructor`."""
+
+    def __init__(self, net, rec: "Reconstructor"):
+        self._net, self._rec = net, rec
+
+    def __call__(self, batch):
+        with self._rec.timed("network"):
+            return self._net(batch)
+
+    def __getattr__(self, name):
+        if name in ("_net", "_rec"):  # not set yet (copy, pickle): no recursion
+            raise AttributeError(name)
+        return getattr(self._net, name)
+
+
 class Reconstructor:
     """Progressive warping over a spike stream, frame by frame, with bounded memory.
 
@@ -310,9 +401,15 @@ class Reconstructor:
                              f"needs ((K−1)L+1)·W = {need} planes")
         if p.align and p.K > 1 and p.L > 0:  # small frames: a smaller pyramid, or zero flow (with a note)
             p = self.params = _fit_align_size(stream.height // 2, stream.width // 2, p)
+        #: seconds spent per stage of :data:`STAGES` since construction, each stage's own time
+        #: (a stage timed inside another is taken out of the outer one); ``"write"`` is what callers
+        #: time with :meth:`timed`
+        self.timings: dict[str, float] = dict.fromkeys(STAGES, 0.0)
+        #: wall seconds spent inside :meth:`frames` making frames, and the frames made
+        self.busy_seconds = 0.0
+        self.frames_made = 0
+        self._open: list[list] = []  # [stage, start, seconds of stages nested in it]
         self._denoise = self._make_denoiser(denoiser)
-        #: seconds spent per stage since construction (accumulate, denoise, align, warp, demosaic)
-        self.timings: dict[str, float] = dict.fromkeys(("accumulate", "denoise", "align", "warp", "demosaic"), 0.0)
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray]:
@@ -321,7 +418,11 @@ class Reconstructor:
         if denoiser is None:
             denoiser = Denoiser.load()
         if isinstance(denoiser, Denoiser):
+            import copy
+
             mode = self.params.mode
+            denoiser = copy.copy(denoiser)  # the same weights and settings; its forward passes timed
+            denoiser.unet = _TimedNetwork(denoiser.unet, self)
 
             # the guard (if the Denoiser has one) on the output only: frames that are only aligned
             # need no guard, and it would cost them a second network pass
@@ -332,9 +433,48 @@ class Reconstructor:
         if not callable(denoiser):
             raise TypeError(f"denoiser must be a Denoiser or a callable on (4, h, w) planes; "
                             f"got {type(denoiser).__name__}")
-        return lambda planes, exposure, final: denoiser(planes)
+        def call(planes, exposure, final):
+            with self.timed("network"):  # a plain callable counts as the network
+                return denoiser(planes)
+
+        return call
 
     # ------------------------------------------------------------------ public
+    @contextmanager
+    def timed(self, stage: str):
+        """Add the wall time of the ``with`` block to ``timings[stage]`` (a stage of :data:`STAGES`).
+
+        Blocks may nest: an inner stage's seconds are taken out of the outer one, so the stages
+        never count the same second twice and sum to at most the wall time.
+        """
+        if stage not in self.timings:
+            raise ValueError(f"stage must be one of {', '.join(STAGES)}; got {stage!r}")
+        entry = [stage, time.perf_counter(), 0.0]
+        self._open.append(entry)
+        try:
+            yield
+        finally:
+            self._open.pop()
+            elapsed = time.perf_counter() - entry[1]
+            self.timings[stage] += elapsed - entry[2]
+            if self._open:
+                self._open[-1][2] += elapsed
+
+    def profile(self, total: float | None = None) -> StageProfile:
+        """The stage breakdown so far (:class:`StageProfile`).
+
+        Parameters
+        ----------
+        total : float, optional
+            Wall seconds to account for, e.g. the caller's whole loop including writing; default
+            :attr:`busy_seconds` plus the ``"write"`` stage.  What the stages leave is ``"other"``.
+        """
+        if total is None:
+            total = self.busy_seconds + self.timings["write"]
+        seconds = dict(self.timings)
+        seconds["other"] = max(0.0, float(total) - sum(seconds.values()))
+        return StageProfile(seconds=seconds, frames=self.frames_made, total=float(total))
+
     def frames(self, start: int | None = None, stop: int | None = None,
                keep_steps: bool = False) -> Iterator[ReconstructedFrame]:
         """Yield frames ``start … stop−1`` (default: every frame of :attr:`frames_available`)."""
@@ -350,8 +490,12 @@ class Reconstructor:
                              f"L={self.params.L}; frame k needs windows k−{self.params.reach} … k+{self.params.reach})")
         state = _State(self, keep_steps)
         for k in range(start, stop):
-            yield state.output(k, keep_steps)
+            t0 = time.perf_counter()
+            frame = state.output(k, keep_steps)
             state.evict(k + 1)
+            self.busy_seconds += time.perf_counter() - t0
+            self.frames_made += 1
+            yield frame
 
     def __iter__(self) -> Iterator[np.ndarray]:
         for frame in self.frames():
@@ -364,16 +508,9 @@ class Reconstructor:
 class _State:
     """The per-step rings of one pass over increasing frame numbers."""
 
-    @contextmanager
-    def timed(self, stage: str):
-        t0 = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.rec.timings[stage] += time.perf_counter() - t0
-
     def __init__(self, rec: Reconstructor, keep_flows: bool = False):
         self.rec = rec
+        self.timed = rec.timed
         self.p = rec.params
         self.stream = rec.stream
         self.keep_flows = keep_flows
@@ -409,7 +546,7 @@ class _State:
             self.planes(level, k)
             entry = self.levels[level][k]
         if entry[1] is None:
-            with self.timed("denoise"):
+            with self.timed("guard"):  # the network's passes inside are timed apart
                 exposure = exposure_planes(self.p.window, self.p.K, level)
                 out = np.asarray(self.rec._denoise(entry[0], exposure, level == self.p.L), dtype=np.float32)
             if out.shape != entry[0].shape:

@@ -18,7 +18,8 @@ def test_full_and_quick_grids():
     full = grid_settings(FULL_GRID)
     names = [s.name for s in full]
     # baselines; visible W×K×L×(align on × 2 flow frames + off), L=0 once per W: 2 + 2·2·3·3 = 38; mixed+blind
-    assert len(names) == len(set(names)) == 4 + 38 + 8
+    assert len(names) == len(set(names)) == 4 + 38 + 1 + 8
+    assert "ours visible W=10 K=3 L=3 smoothed-flow (fast preset)" in names
     assert "ours visible W=20 K=5 L=3 no-align" in names and "ours blind W=10 K=3 L=3" in names
     assert "ours visible W=20 K=5 L=3 smoothed-flow" in names and "ours visible W=10 L=0" in names
     assert not any("no-align" in n and "smoothed" in n for n in names)  # no flow, nothing to smooth
@@ -28,7 +29,8 @@ def test_full_and_quick_grids():
     assert quick == ["TFP W=10", "TFP W=100", "TFI", "TFSTP", "ours visible W=10 L=0", "ours visible W=10 K=3 L=1",
                      "ours visible W=10 K=3 L=2", "ours visible W=10 K=3 L=3", "ours visible W=10 K=5 L=3",
                      "ours visible W=20 K=3 L=3", "ours visible W=10 K=3 L=3 no-align",
-                     "ours visible W=10 K=3 L=3 smoothed-flow", "ours mixed W=10 L=0", "ours blind W=10 L=0"]
+                     "ours visible W=10 K=3 L=3 smoothed-flow", "ours visible W=10 K=3 L=3 smoothed-flow (fast preset)",
+                     "ours mixed W=10 L=0", "ours blind W=10 L=0"]
     only = grid_settings(parse_grid(methods=["tfi", "ours"], modes=["blind"], L=[0, 2]))
     assert [s.name for s in only] == ["TFI", "ours blind W=10 L=0", "ours blind W=10 K=3 L=2"]
 
@@ -139,7 +141,7 @@ def test_summary_and_contact_sheet():
 def test_cli_bench_small_run_writes_every_output(tmp_path, capsys):
     out = tmp_path / "bench"
     rc = main(["bench", "--methods", "tfp10,tfp100,ours", "-L", "0", "-W", "10", "--modes", "visible",
-               "--scenes", "static,hdr", "--frames", "1", "--out", str(out), "--no-progress"])
+               "--scenes", "static,hdr", "--frames", "2", "--out", str(out), "--no-progress"])
     assert rc == 0
     rows = list(csv.DictReader((out / "results.csv").open()))
     assert [(r["scene"], r["setting"]) for r in rows] == [
@@ -151,6 +153,15 @@ def test_cli_bench_small_run_writes_every_output(tmp_path, capsys):
     assert by[("static", "TFP W=100")] > by[("static", "TFP W=10")] + 5  # a static scene rewards long windows
     md = (out / "results.md").read_text()
     assert "| TFP W=100" in md and "vs TFP W=10:" in md
+    # the method's stage breakdown: a column per stage in the CSV, a table in results.md
+    for r in rows:
+        ours = r["method"] == "ours"
+        assert (float(r["network_s"]) > 0) if ours else np.isnan(float(r["network_s"]))
+        if ours:
+            staged = sum(float(r[f"{k}_s"]) for k in ("accumulate", "network", "guard", "align", "warp", "demosaic",
+                                                      "other"))
+            assert staged <= float(r["seconds_per_frame"]) * 1.5
+    assert "Where the method's time goes" in md and "| ours visible W=10 L=0 |" in md and "outside the network" in md
     assert (out / "contact_sheet.png").stat().st_size > 0
     assert "| setting |" in capsys.readouterr().out
 
@@ -184,5 +195,7 @@ def test_pareto_plot_is_a_png(tmp_path):
             for n, m, mode, a, p, c in (("TFP W=10", "tfp", "", "", 20.0, 0.001),
                                         ("ours", "ours", "visible", "on", 25.0, 0.2),
                                         ("ours b", "ours", "blind", "off", 24.0, 3.0))]
+    rows.append({**rows[1], "setting": "ours (fast preset)", "warp": "chained", "flow_frames": "smoothed",
+                 "seconds_per_frame": 0.1})
     assert plot_pareto(summarize(rows), tmp_path / "p.png")
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -174,6 +174,21 @@ def test_reconstruct_chunks_and_resume_equal_one_run(tmp_path, random_weights, c
     assert (tmp_path / "b.mp4").stat().st_size > 1000
 
 
+def test_reconstruct_fast_preset_and_profile(tmp_path, random_weights, capsys):
+    argv = ["reconstruct", "--exr-dir", str(tmp_path / "f"), "--frames", "3:5", "--weights", str(random_weights)]
+    assert main([*argv, "--preset", "fast", "--profile"]) == 0
+    err = capsys.readouterr().err
+    assert "the fast preset" in err and "chained warp" in err
+    table = err[err.index("where the time went"):]
+    for stage in ("accumulate", "network", "guard", "align", "warp", "demosaic", "write", "other", "total"):
+        assert f"\n{stage} " in table, table
+    assert "2 frames" in table and "outside the network:" in table and "% of time" in table
+    assert sorted(p.name for p in (tmp_path / "f").iterdir()) == ["frame_000003.exr", "frame_000004.exr"]
+    assert main([*argv[:2], str(tmp_path / "g"), *argv[3:], "--preset", "paper"]) == 0
+    err = capsys.readouterr().err
+    assert "the paper's procedure" in err and "where the time went" not in err
+
+
 def test_reconstruct_with_flow_on_smoothed_frames(tmp_path, random_weights, capsys):
     argv = ["reconstruct", "--exr-dir", str(tmp_path / "s"), "--frames", "3:5", "--weights", str(random_weights)]
     assert main([*argv, "--flow-frames", "smoothed"]) == 0

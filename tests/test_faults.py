@@ -118,6 +118,12 @@ BAD = [
     ("denoise: --width 0", lambda d: ["denoise", "--width", "0", "--frames", "1", "--exr-dir", "e"],
      "--width must be a positive"),
     # ---- reconstruct (without -o/--exr-dir it would write reconstruction.mp4 and reconstruction_exr/)
+    ("reconstruct: --preset turbo", lambda d: ["reconstruct", "--preset", "turbo", "--frames", "3:4"],
+     "invalid choice: 'turbo' (choose from 'default', 'fast', 'paper')"),
+    ("reconstruct: --paper with --preset fast", lambda d: ["reconstruct", "--paper", "--preset", "fast"],
+     "--paper is --preset paper"),
+    ("reconstruct: --profile with --workers", lambda d: ["reconstruct", "--profile", "--workers", "2"],
+     "--profile times one process"),
     ("reconstruct: --fps 0", lambda d: ["reconstruct", "--fps", "0", "--frames", "3:4"],
      "--fps must be a finite number > 0"),
     ("reconstruct: -o out.xyz", lambda d: ["reconstruct", "-o", "out.xyz", "--exr-dir", "e", "--frames", "3:4"],

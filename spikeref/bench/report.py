@@ -15,7 +15,7 @@ import numpy as np
 
 from spikeref.bench.runner import METRICS
 
-__all__ = ["pareto_front", "summarize", "markdown_report", "write_csv", "plot_pareto", "contact_sheet",
+__all__ = ["pareto_front", "summarize", "stage_table", "markdown_report", "write_csv", "plot_pareto", "contact_sheet",
            "write_report"]
 
 
@@ -43,15 +43,45 @@ def summarize(rows: list[dict]) -> list[dict]:
     for name in order:
         rs = [r for r in rows if r["setting"] == name]
         first = rs[0]
-        row = {k: first.get(k, "") for k in ("setting", "method", "W", "K", "L", "mode", "align", "flow_frames")}
+        row = {k: first.get(k, "") for k in ("setting", "method", "W", "K", "L", "mode", "align", "flow_frames",
+                                              "warp")}
         for m in (*METRICS, "seconds_per_frame", "warmup_s"):
             row[m] = float(np.mean([r[m] for r in rs]))
+        for k in _stage_keys(first):
+            vals = [float(r[k]) for r in rs]
+            row[k] = float(np.mean(vals)) if all(np.isfinite(vals)) else float("nan")
         row["per_scene_psnr"] = {r["scene"]: r["psnr"] for r in rs}
         out.append(row)
     front = pareto_front([r["seconds_per_frame"] for r in out], [r["psnr"] for r in out])
     for r, f in zip(out, front, strict=True):
         r["pareto_psnr"] = bool(f)
     return out
+
+
+def _stage_keys(row: dict) -> list[str]:
+    """The per-stage seconds-per-frame columns of a row (``accumulate_s`` … ``other_s``)."""
+    from spikeref.pipeline import STAGES
+
+    return [f"{k}_s" for k in (*STAGES, "other") if f"{k}_s" in row]
+
+
+def stage_table(summary: list[dict]) -> list[str]:
+    """Markdown lines: where the method's time goes per setting (ms per frame per stage, % outside the network)."""
+    rows = [r for r in summary if r["method"] == "ours" and _stage_keys(r)
+            and all(np.isfinite(r[k]) for k in _stage_keys(r))]
+    if not rows:
+        return []
+    keys = _stage_keys(rows[0])
+    lines = ["Where the method's time goes (steady-state frames, ms per frame, mean over the scenes; network = "
+             "the U-Net's passes, guard = the rest of the denoiser):", "",
+             "| setting | " + " | ".join(k[:-2] for k in keys) + " | total | outside the network |",
+             "|---|" + "---:|" * (len(keys) + 2)]
+    for r in rows:
+        total = sum(r[k] for k in keys)
+        out = 1 - r["network_s"] / total if total > 0 else float("nan")
+        lines.append(f"| {r['setting']} | " + " | ".join(f"{1e3 * r[k]:.1f}" for k in keys)
+                     + f" | {1e3 * total:.1f} | {100 * out:.0f} % |")
+    return lines
 
 
 def write_csv(rows: list[dict]) -> str:
@@ -106,6 +136,9 @@ def markdown_report(result: dict, summary: list[dict], meta: dict) -> str:
                      f"{b['seconds_per_frame'] - a['seconds_per_frame']:+.3f} s/frame"
                      for a, b in zip(steps[:-1], steps[1:], strict=True)]
             lines.append("- Each step of accuracy and its cost (visible, K=3): " + "; ".join(gains) + ".")
+    stages = stage_table(summary)
+    if stages:
+        lines += ["", *stages]
     if meta.get("sheet"):
         lines += ["", f"Contact sheet (`contact_sheet.png`, scene {meta['sheet_scene']}), left to right, top to "
                   "bottom: " + ", ".join(meta["sheet"]) + "."]
@@ -131,13 +164,14 @@ def plot_pareto(summary: list[dict], path: Path) -> bool:
         front = pareto_front(cost, score)
         for r, c, s in zip(summary, cost, score, strict=True):
             col = colours.get(r["method"]) or mode_colours[r["mode"]]
-            marker = "o" if r["method"] != "ours" else \
+            fast = r["method"] == "ours" and r.get("warp") == "chained"
+            marker = "o" if r["method"] != "ours" else "*" if fast else \
                 ("s" if r["align"] == "off" else "D" if r["flow_frames"] == "smoothed" else "^")
-            ax.scatter(c, s, color=col, marker=marker, s=28, alpha=0.8)
+            ax.scatter(c, s, color=col, marker=marker, s=90 if fast else 28, alpha=0.8)
         order = np.argsort(cost[front])
         ax.step(cost[front][order], score[front][order], where="post", color="k", lw=1, label="Pareto front")
         for r, c, s, f in zip(summary, cost, score, front, strict=True):
-            if f or r["method"] != "ours":
+            if f or r["method"] != "ours" or r.get("warp") == "chained":
                 ax.annotate(r["setting"].replace("ours ", ""), (c, s), fontsize=6, xytext=(3, 2),
                             textcoords="offset points")
         ax.set_xscale("log")
@@ -148,6 +182,7 @@ def plot_pareto(summary: list[dict], path: Path) -> bool:
     handles += [plt.Line2D([], [], color=c, marker="^", ls="", label=f"ours {k}") for k, c in mode_colours.items()]
     handles += [plt.Line2D([], [], color="k", marker="s", ls="", label="ours, no alignment"),
                 plt.Line2D([], [], color="k", marker="D", ls="", label="ours, flow on smoothed frames"),
+                plt.Line2D([], [], color="k", marker="*", ls="", markersize=10, label="ours, fast preset"),
                 plt.Line2D([], [], color="k", lw=1, label="Pareto front")]
     axes[0].legend(handles=handles, fontsize=7, loc="lower right")
     fig.suptitle("What accuracy costs in time (mean over the benchmark scenes)")

@@ -147,8 +147,11 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
     -------
     frames : list of ``(H, W, 3) float32`` linear RGB (Ψ applied), one per centre
     timing : dict
-        ``seconds_per_frame`` (see the module docstring) and ``warmup_s`` (the method's first
-        frame, 0 for baselines).
+        ``seconds_per_frame`` (see the module docstring), ``warmup_s`` (the method's first
+        frame, 0 for baselines) and, for the method, ``<stage>_s`` for each stage of
+        :data:`~spikeref.pipeline.STAGES` but ``write`` plus ``other_s``: seconds per frame of
+        the frames after the first (:meth:`~spikeref.pipeline.Reconstructor.profile`; NaN for
+        baselines and for a single scored frame).
     """
     from spikeref.accumulate import accumulate
     from spikeref.baselines import TFSTPState, tfi, tfstp
@@ -159,7 +162,11 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
     def psi(x):
         return demosaic_bilinear(x, cfa)
 
+    from spikeref.pipeline import STAGES
+
     frames, times, warmup = [], [], 0.0
+    stage_keys = [k for k in (*STAGES, "other") if k != "write"]
+    stages = dict.fromkeys(stage_keys, float("nan"))
     if setting.method in ("tfp", "tfi"):
         w = setting.window
         for t in centres:
@@ -189,14 +196,16 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
         ks = [(t - w // 2 - offset) // w for t in centres]
         extra = {} if align_params is None else {"align_params": align_params}
         params = ReconstructParams(window=w, K=setting.K, L=setting.L, mode=setting.mode, align=setting.align,
-                                   flow_frames=setting.flow_frames, **extra)
+                                   flow_frames=setting.flow_frames, warp=setting.warp, **extra)
         rec = Reconstructor(view, params, denoiser)
         wanted = set(ks)
         t0 = time.perf_counter()
+        first = None
         for k, frame in zip(range(ks[0], ks[-1] + 1), rec.frames(ks[0], ks[-1] + 1), strict=True):
             now = time.perf_counter()
             if k == ks[0]:
                 warmup = now - t0
+                first = rec.profile()
             else:
                 times.append(now - t0)
             t0 = now
@@ -204,9 +213,13 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
                 frames.append(frame.rgb)
         if not times:  # a single scored frame: its time is all we have
             times.append(warmup)
+        else:  # the steady-state frames' breakdown: all of them less the first
+            last, n = rec.profile(), rec.frames_made - first.frames
+            stages = {k: (last.seconds[k] - first.seconds[k]) / n for k in stage_keys}
     else:
         raise ValueError(f"unknown method {setting.method!r}")
-    return frames, {"seconds_per_frame": float(np.median(times)), "warmup_s": float(warmup)}
+    return frames, {"seconds_per_frame": float(np.median(times)), "warmup_s": float(warmup),
+                    **{f"{k}_s": float(v) for k, v in stages.items()}}
 
 
 def _warm_up(stream, denoiser, modes) -> None:
@@ -281,6 +294,7 @@ def run_bench(grid: BenchGrid, seed: int = 0, denoiser=None, progress: bool = Tr
                        "mode": s.mode if s.method == "ours" else "",
                        "align": ("on" if s.align else "off") if s.method == "ours" else "",
                        "flow_frames": s.flow_frames if s.method == "ours" and s.align and s.L else "",
+                       "warp": s.warp if s.method == "ours" and s.align and s.L else "",
                        **{m: float(np.mean([sc_[m] for sc_ in scores])) for m in METRICS},
                        **timing, "frames": len(frames), "height": sc.stream.height, "width": sc.stream.width}
                 rows.append(row)

@@ -13,7 +13,10 @@ axis takes; :func:`grid_settings` expands it:
   ``W, K, L``) — or, with ``visible_product=False`` (the quick grid), along the ``L`` axis at
   the first ``W, K, align, flow_frames`` plus each other axis varied alone at the largest ``L``;
 * the costly modes (``mixed`` runs 17 network passes per frame, ``blind`` 16) along
-  ``expensive_L`` at the first ``W, K, align, flow_frames``.
+  ``expensive_L`` at the first ``W, K, align, flow_frames``;
+* the fast preset (:meth:`~spikeref.pipeline.ReconstructParams.fast`: smoothed flow frames and
+  the chained warp) at the first ``W, K`` and the largest ``L`` (≥ 2; at ``L = 1`` it is the
+  composed warp), when the grid runs ``visible`` with alignment on (``fast_preset=True``).
 """
 
 from __future__ import annotations
@@ -48,6 +51,9 @@ class Setting:
         Whether the method estimates flow (False: zero flow, plain accumulation).
     flow_frames : {"denoised", "smoothed"}
         What the flow is estimated on (:class:`~spikeref.pipeline.ReconstructParams`).
+    warp : {"composed", "chained"}
+        How the output is warped (:class:`~spikeref.pipeline.ReconstructParams`); ``"chained"``
+        with smoothed flow frames is the fast preset.
     """
 
     method: str
@@ -57,6 +63,7 @@ class Setting:
     mode: str = "visible"
     align: bool = True
     flow_frames: str = "denoised"
+    warp: str = "composed"
 
     @property
     def name(self) -> str:
@@ -69,6 +76,9 @@ class Setting:
         suffix = "" if self.align else " no-align"
         if self.align and self.flow_frames != "denoised":
             suffix = f" {self.flow_frames}-flow"
+        if self.warp != "composed":
+            suffix += " (fast preset)" if self.warp == "chained" and self.flow_frames == "smoothed" \
+                else f" {self.warp}-warp"
         return f"ours {self.mode} W={self.window} K={self.K} L={self.L}" + suffix
 
 
@@ -88,6 +98,8 @@ class BenchGrid:
     #: scored frames per scene (spaced 20 planes apart, centred in the recording)
     frames: int = 4
     scenes: tuple = field(default=())  # empty: every benchmark scene
+    #: also run the fast preset (see the module docstring)
+    fast_preset: bool = True
 
     def __post_init__(self):
         _check_values("methods", self.baselines, tuple(BASELINES))
@@ -115,11 +127,11 @@ def _check_values(name: str, values, allowed) -> None:
         raise ValueError(f"{name} lists a value twice: {_fmt(values)}")
 
 
-#: Every axis in full (`spikeref bench`): 4 baselines + 38 visible + 8 mixed/blind settings.
+#: Every axis in full (`spikeref bench`): 4 baselines + 38 visible + the fast preset + 8 mixed/blind settings.
 FULL_GRID = BenchGrid()
 #: `spikeref bench --quick`: the L axis, then K = 5, W = 20, no alignment and smoothed flow frames one
 #: at a time at L = 3;
-#: mixed and blind at L = 0 only; two scored frames per scene.
+#: the fast preset; mixed and blind at L = 0 only; two scored frames per scene.
 QUICK_GRID = BenchGrid(expensive_L=(0,), visible_product=False, frames=2)
 
 
@@ -148,6 +160,9 @@ def grid_settings(grid: BenchGrid) -> list[Setting]:
                 cand += [ours(mode, w, k0, top, a0, f0) for w in grid.W[1:]]
                 cand += [ours(mode, w0, k0, top, a, f0) for a in grid.align[1:]]
                 cand += [ours(mode, w0, k0, top, True, f) for f in grid.flow_frames[1:]]
+            if grid.fast_preset and max(grid.L) >= 2 and True in grid.align:
+                cand.append(Setting("ours", window=w0, K=k0, L=max(grid.L), mode=mode, align=True,
+                                    flow_frames="smoothed", warp="chained"))
         else:
             cand = [ours(mode, w0, k0, level, a0, f0) for level in grid.expensive_L]
         for s in cand:
