@@ -5,7 +5,8 @@ unlabeled spikes: simulated procedural scenes and photographs under motion, and 
 recordings — see ``docs/results.md`` and ``scripts/train_denoiser.py``); ``den(planes, mode, window=W)``
 denoises Bayer planes of firing rates (exposure ``W`` planes) with the shared one-channel U-Net
 (:mod:`spikeref.denoise.unet`) in the mode asked for (:mod:`spikeref.denoise.blindspot`);
-:meth:`Denoiser.frames` gives ``Ψ[D(I)]`` for the windows of a spike stream (Eq. 4, then D, then the bilinear demosaic Ψ).
+:meth:`Denoiser.frames` gives ``Ψ[D(I)]`` for the windows of a spike stream (Eq. 4, then D, then the
+bilinear demosaic Ψ).
 """
 
 from __future__ import annotations
