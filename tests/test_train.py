@@ -174,7 +174,7 @@ def test_interrupted_training_resumes_to_the_same_weights(tmp_path, monkeypatch)
     for key in a.params:
         np.testing.assert_array_equal(a.params[key], b.params[key], err_msg=key)
     with pytest.raises(ValueError, match="another configuration"):
-        tr.train(streams, tmp_path / "resumed.npz", _tiny_config(lr=1e-3), resume=True, device="cpu",
+        tr.train(streams, tmp_path / "resumed.npz", _tiny_config(lr=3e-3), resume=True, device="cpu",
                  progress=False)
 
 
