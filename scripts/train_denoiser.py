@@ -95,9 +95,8 @@ def probe(streams, steps: int, channels: int) -> dict:
     """Median seconds per step of each recipe, the recipes' steps interleaved (same load for both)."""
     import torch
 
-    from spikeref.denoise.train import CropSampler, blind_and_visible, blind_subset_and_visible
-    from spikeref.denoise.revisible import revisible_loss_torch
     from spikeref.denoise.torch_unet import TorchUNet
+    from spikeref.denoise.train import CropSampler, train_step
 
     rng = np.random.default_rng(0)
     runs = {}
@@ -106,22 +105,11 @@ def probe(streams, steps: int, channels: int) -> dict:
         torch.manual_seed(0)
         model = TorchUNet(cfg.spec).to(memory_format=torch.channels_last)
         runs[name] = (cfg, model, torch.optim.Adam(model.parameters(), lr=cfg.lr),
-                      CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, domain="count"), [])
+                      CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, domain=cfg.input_domain), [])
     for i in range(steps + 2):
         for cfg, model, opt, sampler, times in runs.values():
             t0 = time.perf_counter()
-            x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
-            known = None
-            if cfg.masks_per_step < cfg.cell**2:
-                subset = np.argsort(rng.random((x.shape[0], cfg.cell**2)), axis=1)[:, : cfg.masks_per_step]
-                blind, visible, known = blind_subset_and_visible(model, x, torch.from_numpy(subset.T.copy()))
-            else:
-                blind, visible = blind_and_visible(model, x)
-            s = windows.rsqrt()[:, None, None, None]
-            loss = revisible_loss_torch(blind * s, visible * s, x * s, 2.0, 1.0, weight=known)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            opt.step()
+            train_step(model, opt, sampler, rng, cfg, cfg.lam_start)
             if i >= 2:  # the first two steps of each recipe set up oneDNN's kernels
                 times.append(time.perf_counter() - t0)
     return {name: statistics.median(run[4]) for name, run in runs.items()}

@@ -58,7 +58,7 @@ from spikeref.denoise.unet import UNetSpec
 INPUT_DOMAINS = ("count", "rate")
 
 __all__ = ["TrainConfig", "INPUT_DOMAINS", "CropSampler", "masked_volume_torch", "blind_and_visible",
-           "blind_subset_and_visible", "train"]
+           "blind_subset_and_visible", "train_step", "train"]
 
 
 @dataclass(frozen=True)
@@ -246,13 +246,18 @@ def masked_volume_torch(x: torch.Tensor, cell: int = 4) -> tuple[torch.Tensor, t
     hidden pixels hold the weighted mean of their 8 neighbours, renormalised at the border.
     """
     h, w = x.shape[-2:]
+    masks = torch.as_tensor(cell_masks(h, w, cell), device=x.device)
+    volume = torch.where(masks[:, None, None], _fill(x)[None], x[None])
+    return volume, masks
+
+
+def _fill(x: torch.Tensor) -> torch.Tensor:
+    """What a hidden pixel holds: the weighted mean of its 8 neighbours, renormalised at the border."""
+    h, w = x.shape[-2:]
     kernel = torch.as_tensor(FILL_KERNEL, dtype=x.dtype, device=x.device)[None, None]
     num = F.conv2d(x, kernel, padding=1)
     den = F.conv2d(torch.ones((1, 1, h, w), dtype=x.dtype, device=x.device), kernel, padding=1)
-    fill = num / den
-    masks = torch.as_tensor(cell_masks(h, w, cell), device=x.device)
-    volume = torch.where(masks[:, None, None], fill[None], x[None])
-    return volume, masks
+    return num / den
 
 
 def blind_subset_and_visible(model, x: torch.Tensor, subset: torch.Tensor, cell: int = 4):
@@ -276,12 +281,8 @@ def blind_subset_and_visible(model, x: torch.Tensor, subset: torch.Tensor, cell:
         ``blind`` is :func:`blind_and_visible`'s ``D(I)`` and ``known`` is all ones.
     """
     h, w = x.shape[-2:]
-    kernel = torch.as_tensor(FILL_KERNEL, dtype=x.dtype, device=x.device)[None, None]
-    num = F.conv2d(x, kernel, padding=1)
-    den = F.conv2d(torch.ones((1, 1, h, w), dtype=x.dtype, device=x.device), kernel, padding=1)
-    fill = num / den
     masks = torch.as_tensor(cell_masks(h, w, cell), device=x.device)[subset][:, :, None]  # (k, N, 1, H, W)
-    volume = torch.where(masks, fill[None], x[None])
+    volume = torch.where(masks, _fill(x)[None], x[None])
     k, n = volume.shape[:2]
     flat = volume.reshape((k * n,) + x.shape[1:]).contiguous(memory_format=torch.channels_last)
     out = model(flat).reshape(volume.shape)
@@ -308,6 +309,32 @@ def blind_and_visible(model, x: torch.Tensor, cell: int = 4) -> tuple[torch.Tens
 
 
 # ----------------------------------------------------------------------------- the loop
+def train_step(model, opt, sampler: CropSampler, rng: np.random.Generator, cfg: TrainConfig, lam: float) -> float:
+    """One optimiser step (steps 1–4 of the module doc) at ``λ = lam``; returns the loss.
+
+    Draws, in this order, the crops and (with ``cfg.masks_per_step < cell²``) the masks of each
+    image from ``rng`` — the order a resumed run replays.
+    """
+    x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
+    known = None
+    if cfg.masks_per_step < cfg.cell**2:
+        subset = np.argsort(rng.random((x.shape[0], cfg.cell**2)), axis=1)[:, : cfg.masks_per_step]
+        blind, visible, known = blind_subset_and_visible(model, x, torch.from_numpy(subset.T.copy()).to(x.device),
+                                                         cfg.cell)
+    else:
+        blind, visible = blind_and_visible(model, x, cfg.cell)
+    if cfg.input_domain == "count":
+        # Eq. 12 per image divided by W: count-domain errors grow with W, their noise does not;
+        # 1/W sits between the two so that no octave of W swamps the gradient
+        s = windows.rsqrt()[:, None, None, None]
+        blind, visible, x = blind * s, visible * s, x * s
+    loss = revisible_loss_torch(blind, visible, x, lam, cfg.eta, weight=known)
+    opt.zero_grad(set_to_none=True)
+    loss.backward()
+    opt.step()
+    return float(loss.detach())
+
+
 def _learning_rate(cfg: TrainConfig, step: int) -> float:
     progress = step / max(1, cfg.steps - 1)
     return cfg.lr * (0.01 + 0.99 * 0.5 * (1.0 + math.cos(math.pi * progress)))
@@ -397,24 +424,7 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         lam = lambda_schedule(step / max(1, cfg.steps - 1), cfg.lam_start, cfg.lam_end)
         for group in opt.param_groups:
             group["lr"] = _learning_rate(cfg, step)
-        x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
-        known = None
-        if cfg.masks_per_step < cfg.cell**2:
-            subset = np.argsort(rng.random((x.shape[0], cfg.cell**2)), axis=1)[:, : cfg.masks_per_step]
-            blind, visible, known = blind_subset_and_visible(model, x, torch.from_numpy(subset.T.copy()).to(dev),
-                                                             cfg.cell)
-        else:
-            blind, visible = blind_and_visible(model, x, cfg.cell)
-        if cfg.input_domain == "count":
-            # Eq. 12 per image divided by W: count-domain errors grow with W, their noise does not;
-            # 1/W sits between the two so that no octave of W swamps the gradient
-            s = windows.rsqrt()[:, None, None, None]
-            blind, visible, x = blind * s, visible * s, x * s
-        loss = revisible_loss_torch(blind, visible, x, lam, cfg.eta, weight=known)
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
-        losses.append(float(loss.detach()))
+        losses.append(train_step(model, opt, sampler, rng, cfg, lam))
         step += 1
         now = time.perf_counter()
         seconds += now - t_last
