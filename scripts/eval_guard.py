@@ -50,15 +50,15 @@ def score(truth: np.ndarray, image: np.ndarray) -> float:
                            float(truth.max()), per_channel=per_channel)
 
 
-def scene_cases(which: str, windows):
-    """``(scene key, W, planes (4, h, w), truth, cfa)`` of every window scored."""
+def scene_cases(which: str, windows, keys=()):
+    """``(scene key, W, planes (4, h, w), truth, cfa)`` of every window scored (``keys``: bench scenes only)."""
     from spikeref.accumulate import accumulate
     from spikeref.bayer import bayer_planes
     from spikeref.bench.runner import bench_scenes, load_bench_scene
     from spikeref.simulate.simulator import ground_truth
 
     if which == "bench":
-        scenes = [(sc, 0) for sc in bench_scenes()]
+        scenes = [(sc, 0) for sc in bench_scenes(tuple(keys))]
     else:
         scenes = [(load_bench_scene(p), 11) for p in sorted((ROOT / "scripts" / "heldout_scenes").glob("*.toml"))]
         scenes += [(load_bench_scene(p), 8)

@@ -23,40 +23,12 @@ from pathlib import Path
 
 import numpy as np
 
-BORDER = 8
-STARTS = (300, 420)
 DEFAULT_SCENES = "translation,hdr,astronaut_pan,coffee_spin,occlusion"
 
 
-def score(truth: np.ndarray, image: np.ndarray) -> float:
-    """PSNR after a least-squares gain per channel, border left out (``scripts/eval_guard.py``'s)."""
-    from spikeref.metrics import psnr_after_gain
-
-    crop = (slice(BORDER, -BORDER), slice(BORDER, -BORDER))
-    return psnr_after_gain(np.asarray(truth, np.float64)[crop], np.asarray(image, np.float64)[crop],
-                           float(truth.max()), per_channel=True)
-
-
-def cases(scene_keys, windows):
-    """``(scene, W, planes (4, h, w) rates, truth (H, W, 3), cfa)`` for every window scored."""
-    from spikeref.accumulate import accumulate
-    from spikeref.bayer import bayer_planes
-    from spikeref.bench.runner import bench_scenes
-    from spikeref.simulate.simulator import ground_truth
-
-    out = []
-    for sc in bench_scenes(tuple(scene_keys)):
-        sc.simulate(0)
-        for w in windows:
-            for start in STARTS:
-                planes = bayer_planes(accumulate(sc.stream, w, start=start, count=1)[0])
-                truth = ground_truth(sc.scene, w, planes=start + w, start=start)[0]
-                out.append((sc.key, w, planes, truth, sc.stream.cfa))
-        sc.stream = None
-    return out
-
-
 def main() -> None:
+    from eval_guard import scene_cases, score  # scripts/eval_guard.py, beside this file
+
     from spikeref.bayer import bayer_mosaic, demosaic_bilinear
     from spikeref.denoise.denoiser import Denoiser
 
@@ -71,7 +43,7 @@ def main() -> None:
         plot(args.csv, args.plot)
         return
     windows = [int(w) for w in args.windows.split(",")]
-    data = cases(args.scenes.split(","), windows)
+    data = list(scene_cases("bench", windows, args.scenes.split(",")))
     rows = []
     identity = {w: np.mean([score(t, demosaic_bilinear(bayer_mosaic(p), cfa)) for _, ww, p, t, cfa in data if ww == w])
                 for w in windows}
