@@ -361,6 +361,13 @@ _PIPELINE = {"window": 5, "K": 3, "L": 3, "frames": (3, 4), "cfa": "RGGB",
                        "subpixel": True}}
 
 
+def _pipeline_params(extra: dict) -> dict:
+    """The manifest parameters of a pipeline case: the shared settings, ``extra``, then the alignment's."""
+    return {"window": _PIPELINE["window"], "K": _PIPELINE["K"], "L": _PIPELINE["L"],
+            "frames": list(_PIPELINE["frames"]), "cfa": _PIPELINE["cfa"], "mode": "visible", **extra,
+            "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}}
+
+
 def _inputs_pipeline():
     """45 planes of 64×64 RGGB spikes: integrate-and-fire (random phase, no other noise) of a
     smooth random texture translating by (0.1, 0.25) pixels per plane (down, right), i.e. by
@@ -721,9 +728,8 @@ CASES: list[GoldenCase] = [
         "as float32.",
         _inputs_pipeline, _pipeline_oracle, _pipeline_fast,
         rtol=1e-4, atol=1e-5,
-        params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible", "shrink": True,
-                "input_domain": "count", "exposure": "W at l=0, W/Σc² at l≥1 (spikeref.pipeline.exposure_planes)",
-                "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
+        params=_pipeline_params({"shrink": True, "input_domain": "count",
+                                 "exposure": "W at l=0, W/Σc² at l≥1 (spikeref.pipeline.exposure_planes)"}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames",
     ),
@@ -749,9 +755,8 @@ CASES: list[GoldenCase] = [
         "The oracle computes in float64; its outputs are stored as float32.",
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_SMOOTHED), partial(_pipeline_variant_fast, **_SMOOTHED),
         rtol=1e-4, atol=1e-5,
-        params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible", "shrink": True,
-                "input_domain": "count", "flow_frames": "smoothed", "flow_sigma": 1.0,
-                "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
+        params=_pipeline_params({"shrink": True, "input_domain": "count", "flow_frames": "smoothed",
+                                 "flow_sigma": 1.0}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_smoothed_flow",
     ),
@@ -769,10 +774,9 @@ CASES: list[GoldenCase] = [
         "computes in float64; its outputs are stored as float32.",
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_COMPOSED), partial(_pipeline_variant_fast, **_COMPOSED),
         rtol=1e-4, atol=1e-5,
-        params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible",
-                "input_domain": "count", "warp": "composed", "interpolant": "Catmull-Rom (Keys a = -1/2)",
-                "guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05,
-                "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
+        params=_pipeline_params({"input_domain": "count", "warp": "composed",
+                                 "interpolant": "Catmull-Rom (Keys a = -1/2)", "guard": "sure", "guard_radius": 8,
+                                 "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_composed_guard",
     ),
@@ -786,9 +790,8 @@ CASES: list[GoldenCase] = [
         "and 4. The oracle computes in float64; its outputs are stored as float32.",
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_CHAINED), partial(_pipeline_variant_fast, **_CHAINED),
         rtol=1e-4, atol=1e-5,
-        params={"window": 5, "K": 3, "L": 3, "frames": [3, 4], "cfa": "RGGB", "mode": "visible",
-                "input_domain": "count", "warp": "chained", "flow_frames": "denoised", "guard": "sure",
-                "align": {k: list(v) if isinstance(v, tuple) else v for k, v in _PIPELINE["align"].items()}},
+        params=_pipeline_params({"input_domain": "count", "warp": "chained", "flow_frames": "denoised",
+                                 "guard": "sure"}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_chained",
     ),
