@@ -69,6 +69,7 @@ the ``2(L − l)h + 1`` windows that later frames still need; windows are read f
 
 from __future__ import annotations
 
+import copy
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -418,8 +419,6 @@ class Reconstructor:
         if denoiser is None:
             denoiser = Denoiser.load()
         if isinstance(denoiser, Denoiser):
-            import copy
-
             mode = self.params.mode
             denoiser = copy.copy(denoiser)  # the same weights and settings; its forward passes timed
             denoiser.unet = _TimedNetwork(denoiser.unet, self)
