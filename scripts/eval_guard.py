@@ -6,7 +6,9 @@ ground truth of that window: PSNR with the ground truth's peak as the data range
 least-squares gain per channel (``spikeref.metrics.psnr_after_gain``), an 8-pixel border left
 out, averaged over the windows (planes 300 and 420 on) and then over the scenes.  BM3D and NLM
 (the ``peers`` extra) run off the shelf, σ estimated blind from each plane; they are left out
-when not installed.
+when not installed.  The guard runs as ``spikeref denoise`` runs it: for W > 10 it measures the
+noise on the window's first 10 planes (``spikeref.denoise.guard.NOISE_WINDOW``); ``--plane-noise``
+adds the guard with σ from the W-plane window itself (the former behaviour).
 
 Sets (``--set``):
 
@@ -50,8 +52,12 @@ def score(truth: np.ndarray, image: np.ndarray) -> float:
                            float(truth.max()), per_channel=per_channel)
 
 
-def scene_cases(which: str, windows, keys=()):
-    """``(scene key, W, planes (4, h, w), truth, cfa)`` of every window scored (``keys``: bench scenes only)."""
+def scene_cases(which: str, windows, keys=(), short: int | None = None):
+    """``(scene key, W, planes (4, h, w), truth, cfa)`` of every window scored (``keys``: bench scenes only).
+
+    With ``short`` (planes), each case has a sixth item: the Bayer planes of the window's first
+    ``short`` planes (what the guard measures the noise on; ``spikeref.denoise.guard``).
+    """
     from spikeref.accumulate import accumulate
     from spikeref.bayer import bayer_planes
     from spikeref.bench.runner import bench_scenes, load_bench_scene
@@ -69,11 +75,15 @@ def scene_cases(which: str, windows, keys=()):
             for start in STARTS:
                 planes = bayer_planes(accumulate(sc.stream, w, start=start, count=1)[0])
                 truth = ground_truth(sc.scene, w, planes=start + w, start=start)[0]
-                yield sc.key, w, planes, truth, sc.stream.cfa
+                case = (sc.key, w, planes, truth, sc.stream.cfa)
+                if short is not None:
+                    case += (bayer_planes(accumulate(sc.stream, short, start=start, count=1)[0]),)
+                yield case
         sc.stream = None
 
 
-def real_cases(windows):
+def real_cases(windows, short: int | None = None):
+    """As :func:`scene_cases` for the real recording (no Ψ: ``cfa`` is None)."""
     from spikeref.bayer import bayer_planes
 
     with np.load(REAL) as data:
@@ -83,12 +93,17 @@ def real_cases(windows):
         for start in REAL_STARTS:
             if start + w <= 200:
                 rate = spikes[start : start + w].mean(axis=0, dtype=np.float64).astype(np.float32)
-                yield "real_outdoor", w, bayer_planes(rate), truth, None
+                case = ("real_outdoor", w, bayer_planes(rate), truth, None)
+                if short is not None:
+                    first = spikes[start : start + short].mean(axis=0, dtype=np.float64).astype(np.float32)
+                    case += (bayer_planes(first),)
+                yield case
 
 
 def main() -> None:
     from spikeref.bayer import bayer_mosaic, demosaic_bilinear
     from spikeref.denoise.denoiser import DEFAULT_WEIGHTS, Denoiser
+    from spikeref.denoise.guard import NOISE_WINDOW
     from spikeref.denoise.peers import PeerDenoiser, peer_available
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -97,31 +112,37 @@ def main() -> None:
     ap.add_argument("--weights", type=Path, nargs="+", default=[DEFAULT_WEIGHTS])
     ap.add_argument("--no-peers", action="store_true")
     ap.add_argument("--no-plain", action="store_true", help="leave out the networks without the guard")
+    ap.add_argument("--plane-noise", action="store_true",
+                    help="also the guard with σ from the plane alone at every W (before 2026-11-24's default)")
     ap.add_argument("--speed", action="store_true", help="seconds per 250×400 frame, network against BM3D")
     args = ap.parse_args()
     windows = [int(w) for w in args.windows.split(",")]
-    methods = {"identity": lambda p, w: p}
+    methods = {"identity": lambda p, w, s: p}
     several = len(args.weights) > 1
     for path in args.weights:
         tag = f" {path.stem}" if several else ""
         plain, guarded = Denoiser.load(path, guard="off"), Denoiser.load(path)
         if not args.no_plain:
-            methods["network" + tag] = lambda p, w, d=plain: d(p, window=w)
-        methods["network + guard" + tag] = lambda p, w, d=guarded: d(p, window=w)
+            methods["network" + tag] = lambda p, w, s, d=plain: d(p, window=w)
+        if args.plane_noise:
+            methods["network + guard, σ of the plane" + tag] = lambda p, w, s, d=guarded: d(p, window=w)
+        methods["network + guard" + tag] = lambda p, w, s, d=guarded: (
+            d(p, window=w, short=s, short_window=NOISE_WINDOW) if w > NOISE_WINDOW else d(p, window=w))
     if not args.no_peers:
         for name in ("bm3d", "nlm"):
             if peer_available(name):
                 peer = PeerDenoiser(name)
-                methods[peer.name] = lambda p, w, peer=peer: peer(p, window=w)
-    cases = real_cases(windows) if args.set == "real" else scene_cases(args.set, windows)
+                methods[peer.name] = lambda p, w, s, peer=peer: peer(p, window=w)
+    cases = (real_cases(windows, NOISE_WINDOW) if args.set == "real"
+             else scene_cases(args.set, windows, short=NOISE_WINDOW))
     table, secs, keys = {}, {m: [] for m in methods}, []
-    for key, w, planes, truth, cfa in cases:
+    for key, w, planes, truth, cfa, short in cases:
         if key not in keys:
             keys.append(key)
             print(f"{key} …", flush=True)
         for name, fn in methods.items():
             t0 = time.perf_counter()
-            out = np.asarray(fn(planes, w), np.float32)
+            out = np.asarray(fn(planes, w, short), np.float32)
             secs[name].append(time.perf_counter() - t0)
             img = bayer_mosaic(out) if cfa is None else demosaic_bilinear(bayer_mosaic(out), cfa)
             table.setdefault((key, w, name), []).append(score(truth, img))
@@ -152,12 +173,12 @@ def speed(methods) -> None:
     for name, fn in methods.items():
         if name == "identity" or name.startswith("nlm"):
             continue
-        fn(planes, 10)  # compile / warm up
+        fn(planes, 10, None)  # compile / warm up
         reps = 2 if name.startswith("bm3d") else 10
         runs = []
         for _ in range(reps):
             t0 = time.perf_counter()
-            fn(planes, 10)
+            fn(planes, 10, None)
             runs.append(time.perf_counter() - t0)
         timed[name] = float(np.median(runs))
     print("seconds per 250×400 frame (median): " + ", ".join(f"{n} {v:.3f}" for n, v in timed.items()))

@@ -922,7 +922,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--guard", choices=["sure", "off"], default="sure",
                    help="sure: blend the network's output with its input by Stein's unbiased risk estimate, "
                         "per pixel, from the data's own noise level (one more network pass; not in the paper; "
-                        "spikeref.denoise.guard); off: the network's output, then the shrinkage below")
+                        "spikeref.denoise.guard; for W > 10 the noise is measured on the window's first 10 "
+                        "planes, so texture is not read as noise); off: the network's output, then the shrinkage "
+                        "below")
     p.add_argument("--no-shrink", action="store_true",
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")

@@ -41,6 +41,29 @@ def test_frames_are_demosaicked_colour_or_mono_mosaics(small):
         list(small.frames(SpikeStream.from_array(spikes), window=40))
 
 
+def test_long_windows_measure_the_guards_noise_on_their_first_planes():
+    """frames(): with the guard and W > NOISE_WINDOW the noise comes from the window's first NOISE_WINDOW planes."""
+    from spikeref.accumulate import accumulate
+    from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
+    from spikeref.denoise.guard import NOISE_WINDOW
+
+    net = UNet.random(UNetSpec(width=4, depth=3), seed=2)
+    den = Denoiser(UNet(net.spec, net.params, {"input_domain": "count"}))
+    rng = np.random.default_rng(3)
+    stream = SpikeStream.from_array((rng.random((90, 16, 24)) < 0.3).astype(np.uint8), cfa="RGGB")
+    w = 40
+    (_, first), = list(den.frames(stream, window=w, start=5, count=1))
+    planes = bayer_planes(accumulate(stream, w, start=5, count=1)[0])
+    short = bayer_planes(accumulate(stream, NOISE_WINDOW, start=5, count=1)[0])
+    expect = demosaic_bilinear(bayer_mosaic(den(planes, window=w, short=short, short_window=NOISE_WINDOW)), "RGGB")
+    np.testing.assert_array_equal(first, expect)
+    assert not np.array_equal(expect, demosaic_bilinear(bayer_mosaic(den(planes, window=w)), "RGGB"))
+    with pytest.raises(ValueError, match="short must have the shape"):
+        den(planes, window=w, short=short[:2], short_window=NOISE_WINDOW)
+    with pytest.raises(ValueError, match="short= needs short_window"):
+        den(planes, window=w, short=short)
+
+
 @pytest.mark.parametrize("name, width, domain", [("b2u_w16", 16, "count"), ("b2u_w32", 32, "rate")])
 def test_bundled_weights_load_and_are_documented(name, width, domain):
     den = Denoiser.load(name)  # a bundled name resolves to spikeref/denoise/weights/NAME.npz

@@ -5,8 +5,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spikeref.denoise.guard import (noise_sigma, probe_step, rademacher_probe, sure_alpha, sure_blend)
-from spikeref.oracles.guard import noise_sigma_oracle, sure_alpha_oracle
+from spikeref.denoise.guard import (carried_excess_variance, noise_sigma, probe_step, quantisation_variance,
+                                    rademacher_probe, sure_alpha, sure_blend)
+from spikeref.oracles.guard import carried_excess_variance_oracle, noise_sigma_oracle, sure_alpha_oracle
 
 
 def _smooth(h, w, seed):
@@ -135,3 +136,63 @@ def test_low_light_is_not_read_as_noise_free():
     _, alpha_floor = sure_blend(y, lambda z: smooth, window=10)
     _, alpha_none = sure_blend(y, lambda z: smooth)
     assert alpha_none.max() == 0.0 and alpha_floor.mean() > 0.8
+
+
+@settings(max_examples=15, deadline=None)
+@given(h=st.integers(3, 9), w=st.integers(3, 9), w0=st.sampled_from([5, 10]), w1=st.sampled_from([20, 100]),
+       seed=st.integers(0, 10_000))
+def test_carried_excess_variance_matches_the_oracle(h, w, w0, w1, seed):
+    rng = np.random.default_rng(seed)
+    short = (rng.integers(0, w0 + 1, (2, h, w)) / w0).astype(np.float32)
+    got = carried_excess_variance(short, w0, w1)
+    for i in range(2):
+        assert got[i] == pytest.approx(carried_excess_variance_oracle(short[i], w0, w1), rel=1e-9, abs=1e-15)
+
+
+def _fired_counts(rate, window, rng, shot=0.0):
+    """Counts of an integrate-and-fire pixel over ``window`` readouts: ⌊φ + pW⌋, random phase, optional shot noise."""
+    drive = rate * window + (rng.normal(0.0, shot * np.sqrt(window), rate.shape) if shot else 0.0)
+    return np.clip(np.floor(rng.random(rate.shape) + drive), 0, window)
+
+
+def test_carried_excess_variance_sees_shot_noise_and_not_the_quantisation():
+    """Pure ⌊φ + pW⌋ counts: nothing above the floor; added noise of variance s/W₀ per rate: ≈ s/W once carried."""
+    rng = np.random.default_rng(5)
+    rate = np.broadcast_to(_smooth(128, 128, 1), (2, 128, 128))
+    quantised = (_fired_counts(rate, 10, rng) / 10).astype(np.float32)
+    floor = quantisation_variance(quantised, 10).mean()
+    assert np.all(carried_excess_variance(quantised, 10, 10) < 0.15 * floor)
+    shot = (_fired_counts(rate, 10, rng, shot=0.3) / 10).astype(np.float32)  # rate noise variance 0.09/10 + floor
+    carried = carried_excess_variance(shot, 10, 100)
+    np.testing.assert_allclose(carried, 0.09 / 100, rtol=0.2)
+
+
+def test_carried_noise_caps_the_plane_estimate_at_long_windows():
+    """A textured long window: the plane's σ reads texture as noise and the guard keeps a smoother's output;
+    capped by the noise measured on a short window it gives the texture back.  A cap above σ changes nothing."""
+    from scipy.ndimage import gaussian_filter
+
+    rng = np.random.default_rng(11)
+    texture = 0.3 + 0.1 * rng.standard_normal((1, 96, 96))  # fine detail, as leaves or a fence
+    long_w, short_w = 200, 10
+    y = (_fired_counts(texture, long_w, rng) / long_w).astype(np.float32)
+    short = (_fired_counts(texture, short_w, rng) / short_w).astype(np.float32)
+
+    def smoother(z):
+        return gaussian_filter(z, (0, 2, 2)).astype(np.float32)
+
+    truth_err = {}
+    plain, alpha_plain = sure_blend(y, smoother, window=long_w)
+    carried = carried_excess_variance(short, short_w, long_w)
+    capped, alpha_capped = sure_blend(y, smoother, window=long_w, carried=carried)
+    truth_err = {k: float(np.mean((v - texture) ** 2)) for k, v in (("plain", plain), ("capped", capped))}
+    assert alpha_capped.mean() < 0.5 * alpha_plain.mean()
+    assert truth_err["capped"] < 0.5 * truth_err["plain"]
+    huge, _ = sure_blend(y, smoother, window=long_w, carried=[1.0])
+    np.testing.assert_array_equal(huge, plain)
+    with pytest.raises(ValueError, match="carried needs window"):
+        sure_blend(y, smoother, carried=carried)
+    with pytest.raises(ValueError, match="carried must be finite"):
+        sure_blend(y, smoother, window=long_w, carried=[-1.0])
+    with pytest.raises(ValueError, match="short_window must be a positive"):
+        carried_excess_variance(short, 0, long_w)

@@ -17,7 +17,7 @@ from typing import Iterator
 import numpy as np
 
 from spikeref.denoise.blindspot import MODES, _check_cell, blindspot_denoise
-from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, sure_blend
+from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, carried_excess_variance, sure_blend
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
 
@@ -122,19 +122,35 @@ class Denoiser:
         return f"Denoiser({self.unet!r}, mode={self.mode!r}, shrink={self.shrink}, guard={self.guard!r})"
 
     def __call__(self, planes, mode: str | None = None, window: float | None = None,
-                 guard: str | None = None) -> np.ndarray:
+                 guard: str | None = None, short=None, short_window: float | None = None) -> np.ndarray:
         """Denoise firing-rate planes ``(..., h, w)`` float (e.g. ``(4, H/2, W/2)``); same shape, float32.
 
         ``window`` is the exposure behind the rates, in planes (``W`` of Eq. 4; for a warped
         accumulation its noise-equivalent length).  A count-domain network needs it; a
         rate-domain network uses it only for the residual shrinkage (``shrink``, applied for
         ``window ≥ 1``).  ``guard`` overrides the denoiser's own guard for this call (the
-        pipeline turns it off for the frames it only aligns).
+        pipeline turns it off for the frames it only aligns).  ``short`` (rates of the planes' shape)
+        and ``short_window`` (planes) are a shorter window of the same stream, e.g. the first
+        :data:`~spikeref.denoise.guard.NOISE_WINDOW` planes of this one: the guard then measures
+        the noise there and carries it to ``window``
+        (:func:`~spikeref.denoise.guard.carried_excess_variance`; texture is not read as noise at
+        long windows).  Used only with the guard and ``window``; :meth:`frames` passes them.
         """
         use = self.guard if guard is None else _check_guard(guard)
         if use == "sure":
             arr = self._check_planes(planes, window)
-            out, _ = sure_blend(arr, lambda z: self._network(z, mode, window), self.guard_radius, window=window)
+            carried = None
+            if short is not None:
+                if window is None:
+                    raise ValueError("short= needs window= (the exposure of planes)")
+                short_arr = self._check_planes(short, short_window)
+                if short_arr.shape != arr.shape:
+                    raise ValueError(f"short must have the shape of planes {arr.shape}; got {short_arr.shape}")
+                if short_window is None:
+                    raise ValueError("short= needs short_window= (its exposure in planes)")
+                carried = carried_excess_variance(short_arr, short_window, window)
+            out, _ = sure_blend(arr, lambda z: self._network(z, mode, window), self.guard_radius, window=window,
+                                carried=carried)
             return out
         out = self._network(planes, mode, window)
         if self.shrink and window is not None and window >= 1:
@@ -176,7 +192,10 @@ class Denoiser:
 
         Frames are linear RGB ``(H, W, 3) float32`` in spikes per readout for a colour stream
         (monochrome: ``(H, W)``; the denoiser runs on the four 2×2 phases).  ``start`` is the
-        first plane; ``count`` windows (default: every whole window).
+        first plane; ``count`` windows (default: every whole window).  With the guard on and
+        ``window`` longer than :data:`~spikeref.denoise.guard.NOISE_WINDOW` planes, the guard
+        measures the noise on the window's first ``NOISE_WINDOW`` planes (``short=`` of
+        :meth:`__call__`).
         """
         from spikeref.accumulate import accumulate
         from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
@@ -194,6 +213,11 @@ class Denoiser:
             raise ValueError(f"window={window} from plane {start} is longer than the stream ({len(stream)} planes)")
         count = total if count is None else min(int(count), total)
         for k in range(count):
-            rates = accumulate(stream, window, start=start + k * window, count=1)[0]
-            clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window))
+            first = start + k * window
+            rates = accumulate(stream, window, start=first, count=1)[0]
+            extra = {}
+            if self.guard == "sure" and window > NOISE_WINDOW:
+                short = accumulate(stream, NOISE_WINDOW, start=first, count=1)[0]
+                extra = {"short": bayer_planes(short), "short_window": NOISE_WINDOW}
+            clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window, **extra))
             yield k, (demosaic_bilinear(clean, stream.cfa) if stream.cfa else clean)

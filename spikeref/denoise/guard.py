@@ -46,6 +46,18 @@ Interpretations (the noise of spike counts):
   (the network changed nothing) ``α = 1``.
 * ``σ²`` per pixel is ``max(σ_c², q(f(y)))``: the plane's :func:`noise_sigma` squared and, when the exposure
   ``window`` is given (the pipeline), the count's :func:`quantisation_variance` at the network's output.
+* **Long windows: the noise measured on a short one** (``carried=``; :meth:`Denoiser.frames
+  <spikeref.denoise.denoiser.Denoiser.frames>` and ``spikeref denoise`` pass it for windows longer
+  than :data:`NOISE_WINDOW` planes).  At ``W ≳ 50`` every estimate made from the plane itself reads
+  texture as noise: on the real SpikingSIM recording it is 1.3–2.4× the true noise at ``W`` = 50–200
+  and the guard then trusts a network that smooths the branches (``docs/results.md``).  On a short
+  window of the same stream the noise dominates the texture, so :func:`carried_excess_variance`
+  measures there what exceeds the quantisation floor and carries it to ``W`` as temporal (shot-like)
+  noise, ``∝ 1/W``; the plane's ``σ_c²`` is then capped at that plus the mean floor at ``W``:
+  ``σ_c² ← min(σ_c², e·W₀/W + mean q(f(y)))``.  Interpretation: the noise of a window is the
+  quantisation floor plus a part that falls as ``1/W``; a fixed-pattern part (threshold spread, which
+  does not fall with ``W``) is not carried, so where it dominates the cap keeps more of the input
+  (measured: ``docs/results.md``).
   The probe's step is ``ε = 0.05 · √(mean over the plane of σ²)`` (:func:`probe_step` of the root mean
   variance); where ``σ² = 0`` everywhere (no noise at all) ``α = 0``: nothing is removed.
 
@@ -59,8 +71,8 @@ import numpy as np
 from spikeref.denoise.blindspot import _check_image
 from spikeref.noise_level import immerkaer_response
 
-__all__ = ["GUARDS", "DEFAULT_RADIUS", "PROBE_SEED", "NOISE_KEEP", "noise_sigma", "quantisation_variance",
-           "rademacher_probe", "probe_step", "sure_alpha",
+__all__ = ["GUARDS", "DEFAULT_RADIUS", "PROBE_SEED", "NOISE_KEEP", "NOISE_WINDOW", "noise_sigma",
+           "quantisation_variance", "carried_excess_variance", "rademacher_probe", "probe_step", "sure_alpha",
            "sure_blend"]
 
 #: Guards a :class:`~spikeref.denoise.denoiser.Denoiser` accepts: ``"sure"`` (this module) or ``"off"``.
@@ -73,6 +85,9 @@ PROBE_SEED = 0
 NOISE_KEEP = 0.75
 #: The probe's step as a fraction of the plane's noise σ.
 PROBE_FRACTION = 0.05
+#: Length (planes) of the short window on which the guard measures the noise of a longer one
+#: (:func:`carried_excess_variance`): the paper's W; chosen before measuring, not tuned.
+NOISE_WINDOW = 10
 
 
 def _truncated_halfnormal_mean(q: float) -> float:
@@ -196,8 +211,38 @@ def quantisation_variance(rates, window: float) -> np.ndarray:
     return np.minimum(np.minimum(p, 1.0 - p) / w, 1.0 / (6.0 * w * w))
 
 
+def carried_excess_variance(short, short_window: float, window: float) -> np.ndarray:
+    """The noise variance above the quantisation floor, measured on a short window, carried to ``window``.
+
+    ``e = max(0, σ_c(short)² − mean q(short, W₀)) · W₀ / W`` per plane, with ``σ_c`` the plane
+    estimate :func:`noise_sigma`, ``q`` the count's :func:`quantisation_variance` and ``W₀ =
+    short_window``: the part of the short window's noise that the floor does not explain, taken
+    to fall as ``1/W`` (shot noise, dark current, spurious spikes; module docstring).
+
+    Parameters
+    ----------
+    short : ndarray ``(..., h, w)`` float
+        Firing rates of a short window of the same stream (e.g. the first :data:`NOISE_WINDOW`
+        planes of the long window).
+    short_window, window : float
+        ``W₀`` and ``W`` in planes, both > 0.
+
+    Returns
+    -------
+    ndarray ``(...)`` float64
+        One variance per plane, in rate units² at ``window``.
+    """
+    y = _check_image(short, "short").astype(np.float64)
+    for name, value in (("short_window", short_window), ("window", window)):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(value) or value <= 0:
+            raise ValueError(f"{name} must be a positive number of planes; got {value!r}")
+    floor = quantisation_variance(y, short_window).reshape(y.shape[:-2] + (-1,)).mean(axis=-1)
+    return np.maximum(0.0, noise_sigma(y) ** 2 - floor) * (float(short_window) / float(window))
+
+
 def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
-               window: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+               window: float | None = None, carried=None) -> tuple[np.ndarray, np.ndarray]:
     """Guard a denoiser: ``y + α (f(y) − y)`` with the SURE-optimal ``α`` (module docstring).
 
     Parameters
@@ -215,6 +260,11 @@ def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
         The exposure ``W`` behind the rates (planes).  When given, each pixel's variance is at
         least the count's quantisation floor :func:`quantisation_variance` of ``f(y)`` (what
         keeps the estimate from reading 0 in low light, where most counts are 0).
+    carried : array_like ``(...)``, optional
+        Per plane, the noise variance above the floor measured on a short window and carried to
+        ``window`` (:func:`carried_excess_variance`); needs ``window``.  When given, each plane's
+        ``σ²`` is capped at ``carried + `` the mean of :func:`quantisation_variance` of ``f(y)``
+        (module docstring: texture read as noise at long windows).
 
     Returns
     -------
@@ -225,14 +275,24 @@ def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
     sig = noise_sigma(y) if sigma is None else np.broadcast_to(np.asarray(sigma, dtype=np.float64), y.shape[:-2])
     if np.any(~np.isfinite(sig)) or np.any(sig < 0):
         raise ValueError(f"sigma must be finite and ≥ 0; got {sigma!r}")
+    if window is not None and (isinstance(window, bool) or not np.isfinite(window) or window <= 0):
+        raise ValueError(f"window must be a positive number of planes; got {window!r}")
+    if carried is not None:
+        if window is None:
+            raise ValueError("carried needs window= (the exposure the variance was carried to)")
+        extra = np.broadcast_to(np.asarray(carried, dtype=np.float64), y.shape[:-2])
+        if np.any(~np.isfinite(extra)) or np.any(extra < 0):
+            raise ValueError(f"carried must be finite variances ≥ 0; got {carried!r}")
     f = np.asarray(denoise(y), dtype=np.float32)
     if f.shape != y.shape:
         raise ValueError(f"the denoiser returned shape {f.shape} for input {y.shape}")
-    variance = np.broadcast_to((sig ** 2)[..., None, None], y.shape)
-    if window is not None:
-        if isinstance(window, bool) or not np.isfinite(window) or window <= 0:
-            raise ValueError(f"window must be a positive number of planes; got {window!r}")
-        variance = np.maximum(variance, quantisation_variance(f, window))
+    s2 = sig ** 2
+    floor = None if window is None else quantisation_variance(f, window)
+    if carried is not None:
+        s2 = np.minimum(s2, extra + floor.reshape(y.shape[:-2] + (-1,)).mean(axis=-1))
+    variance = np.broadcast_to(s2[..., None, None], y.shape)
+    if floor is not None:
+        variance = np.maximum(variance, floor)
     eps = probe_step(np.sqrt(variance.reshape(y.shape[:-2] + (-1,)).mean(axis=-1)))
     b = rademacher_probe(y.shape)
     fb = np.asarray(denoise((y + (eps[..., None, None] * b)).astype(np.float32)), dtype=np.float32)

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-__all__ = ["noise_sigma_oracle", "sure_alpha_oracle", "quantisation_variance_oracle"]
+__all__ = ["noise_sigma_oracle", "sure_alpha_oracle", "quantisation_variance_oracle", "carried_excess_variance_oracle"]
 
 
 def quantisation_variance_oracle(p, window):
@@ -41,12 +41,25 @@ def noise_sigma_oracle(plane, keep=0.75):
             responses.append(abs(r))
     responses.sort()
     count = max(1, round(len(responses) * keep))
-    if keep >= 1:  # the whole half-normal: mean √(2/π)
+    if (1 + keep) / 2 >= 1:  # the whole half-normal (keep within rounding of 1): mean √(2/π)
         unit = math.sqrt(2 / math.pi)
     else:
         u = NormalDist().inv_cdf((1 + keep) / 2)
         unit = math.sqrt(2 / math.pi) * (1 - math.exp(-u * u / 2)) / keep
     return sum(responses[:count]) / count / (6 * unit)
+
+
+def carried_excess_variance_oracle(short, short_window, window, keep=0.75):
+    """One plane: ``max(0, σ(short)² − mean over pixels of q(p, W₀)) · W₀ / W``.
+
+    ``σ`` is :func:`noise_sigma_oracle` of the short window's plane, ``q`` the quantisation floor
+    :func:`quantisation_variance_oracle` of each of its pixels at ``W₀ = short_window``: what the
+    floor does not explain, carried to ``W = window`` as noise that falls as ``1/W``.
+    """
+    short = np.asarray(short, dtype=np.float64)
+    floors = [quantisation_variance_oracle(p, short_window) for p in short.ravel()]
+    excess = noise_sigma_oracle(short, keep) ** 2 - sum(floors) / len(floors)
+    return max(0.0, excess) * short_window / window
 
 
 def sure_alpha_oracle(noisy, denoised, probed, probe, eps, sigma, radius=8):
