@@ -52,12 +52,15 @@ def score(truth: np.ndarray, image: np.ndarray) -> float:
                            float(truth.max()), per_channel=per_channel)
 
 
-def scene_cases(which: str, windows, keys=(), short: int | None = None):
+def scene_cases(which: str, windows, keys=(), short: int | None = None, accumulate: str = "count"):
     """``(scene key, W, planes (4, h, w), truth, cfa)`` of every window scored (``keys``: bench scenes only).
 
     With ``short`` (planes), each case has a sixth item: the Bayer planes of the window's first
     ``short`` planes (what the guard measures the noise on; ``spikeref.denoise.guard``).
+    ``accumulate="charge"``: the window's timing-aware charge rates (``spikeref.charge``) instead
+    of Eq. 4's.
     """
+    from spikeref.charge import charge_rates
     from spikeref.accumulate import accumulate
     from spikeref.bayer import bayer_planes
     from spikeref.bench.runner import bench_scenes, load_bench_scene
@@ -73,7 +76,10 @@ def scene_cases(which: str, windows, keys=(), short: int | None = None):
         sc.simulate(seed)
         for w in windows:
             for start in STARTS:
-                planes = bayer_planes(accumulate(sc.stream, w, start=start, count=1)[0])
+                if accumulate == "charge":
+                    planes = bayer_planes(charge_rates(sc.stream, w, start=start, count=1)[0])
+                else:
+                    planes = bayer_planes(accumulate(sc.stream, w, start=start, count=1)[0])
                 truth = ground_truth(sc.scene, w, planes=start + w, start=start)[0]
                 case = (sc.key, w, planes, truth, sc.stream.cfa)
                 if short is not None:
@@ -82,9 +88,10 @@ def scene_cases(which: str, windows, keys=(), short: int | None = None):
         sc.stream = None
 
 
-def real_cases(windows, short: int | None = None):
+def real_cases(windows, short: int | None = None, accumulate: str = "count"):
     """As :func:`scene_cases` for the real recording (no Ψ: ``cfa`` is None)."""
     from spikeref.bayer import bayer_planes
+    from spikeref.charge import charge_rates
 
     with np.load(REAL) as data:
         spikes = np.ascontiguousarray(data["arr_0"].transpose(2, 0, 1))  # (T, H, W)
@@ -92,7 +99,10 @@ def real_cases(windows, short: int | None = None):
     for w in windows:
         for start in REAL_STARTS:
             if start + w <= 200:
-                rate = spikes[start : start + w].mean(axis=0, dtype=np.float64).astype(np.float32)
+                if accumulate == "charge":  # its margin reaches at most 200 planes past the window
+                    rate = charge_rates(spikes[: start + w + 200], w, start=start, count=1)[0]
+                else:
+                    rate = spikes[start : start + w].mean(axis=0, dtype=np.float64).astype(np.float32)
                 case = ("real_outdoor", w, bayer_planes(rate), truth, None)
                 if short is not None:
                     first = spikes[start : start + short].mean(axis=0, dtype=np.float64).astype(np.float32)
@@ -112,6 +122,9 @@ def main() -> None:
     ap.add_argument("--weights", type=Path, nargs="+", default=[DEFAULT_WEIGHTS])
     ap.add_argument("--no-peers", action="store_true")
     ap.add_argument("--no-plain", action="store_true", help="leave out the networks without the guard")
+    ap.add_argument("--accumulate", choices=("count", "charge"), default="count",
+                    help="the window's Eq. 4 rates (default) or its timing-aware charge rates (spikeref.charge), "
+                         "for every method; the guard then measures the noise on the window itself")
     ap.add_argument("--plane-noise", action="store_true",
                     help="also the guard with σ from the plane alone at every W (before 2026-11-24's default)")
     ap.add_argument("--speed", action="store_true", help="seconds per 250×400 frame, network against BM3D")
@@ -127,16 +140,19 @@ def main() -> None:
         if args.plane_noise:
             methods["network + guard, σ of the plane" + tag] = lambda p, w, s, d=guarded: d(p, window=w)
         methods["network + guard" + tag] = lambda p, w, s, d=guarded: (
-            d(p, window=w, short=s, short_window=NOISE_WINDOW) if w > NOISE_WINDOW else d(p, window=w))
+            d(p, window=w, short=s, short_window=NOISE_WINDOW) if w > NOISE_WINDOW and s is not None
+            else d(p, window=w))
     if not args.no_peers:
         for name in ("bm3d", "nlm"):
             if peer_available(name):
                 peer = PeerDenoiser(name)
                 methods[peer.name] = lambda p, w, s, peer=peer: peer(p, window=w)
-    cases = (real_cases(windows, NOISE_WINDOW) if args.set == "real"
-             else scene_cases(args.set, windows, short=NOISE_WINDOW))
+    short = NOISE_WINDOW if args.accumulate == "count" else None
+    cases = (real_cases(windows, short, args.accumulate) if args.set == "real"
+             else scene_cases(args.set, windows, short=short, accumulate=args.accumulate))
     table, secs, keys = {}, {m: [] for m in methods}, []
-    for key, w, planes, truth, cfa, short in cases:
+    for key, w, planes, truth, cfa, *rest in cases:
+        short = rest[0] if rest else None
         if key not in keys:
             keys.append(key)
             print(f"{key} …", flush=True)

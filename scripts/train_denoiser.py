@@ -85,10 +85,11 @@ def training_streams(data_dir: Path, real: bool = True, min_side: int = 0):
     return streams, described
 
 
-def config(recipe: str, channels: int, steps: int, checkpoint_every: int):
+def config(recipe: str, channels: int, steps: int, checkpoint_every: int, accumulate: str = "count"):
     from spikeref.denoise.train import TrainConfig
 
-    return TrainConfig(width=channels, steps=steps, checkpoint_every=checkpoint_every, **RECIPES[recipe])
+    return TrainConfig(width=channels, steps=steps, checkpoint_every=checkpoint_every, accumulate=accumulate,
+                       **RECIPES[recipe])
 
 
 def probe(streams, steps: int, channels: int) -> dict:
@@ -125,6 +126,9 @@ def main() -> None:
     ap.add_argument("--stop-after", type=int, default=None, help="stop after this many steps (resume later)")
     ap.add_argument("--snapshots", type=int, default=0, help="write this many evenly spaced weight snapshots")
     ap.add_argument("--no-real", action="store_true", help="leave out ../shared/data/real even if present")
+    ap.add_argument("--accumulate", choices=["count", "charge"], default="count",
+                    help="what a window gives the network: its spike count (Eq. 4) or the timing-aware charge "
+                         "(spikeref.charge; weights for --accumulate charge)")
     ap.add_argument("--probe", type=int, default=0, metavar="N",
                     help="only measure the median seconds per step of both recipes over N interleaved steps")
     args = ap.parse_args()
@@ -137,9 +141,12 @@ def main() -> None:
         print(" ".join(f"{k}: {v:.3f} s/step" for k, v in per_step.items())
               + f"; paper / cpu = {per_step['paper'] / per_step['cpu']:.1f}×")
         return
-    cfg = config(args.recipe, args.channels, args.steps, checkpoint_every=max(1, min(500, args.steps // 20)))
+    cfg = config(args.recipe, args.channels, args.steps, checkpoint_every=max(1, min(500, args.steps // 20)),
+                 accumulate=args.accumulate)
     args.out.mkdir(parents=True, exist_ok=True)
     output = args.out / (f"b2u_w{args.channels}.npz" if args.recipe == "cpu" else f"b2u_paper_w{args.channels}.npz")
+    if args.accumulate == "charge":
+        output = output.with_name(output.stem + "_charge.npz")
     command = "python scripts/train_denoiser.py " + " ".join(sys.argv[1:])
     describe = {"command": command, "recipe": args.recipe, "data": described}
     last = args.steps if args.stop_after is None else min(args.steps, args.stop_after)

@@ -187,7 +187,7 @@ class Denoiser:
         return out
 
     def frames(self, stream, window: int = 10, start: int = 0, count: int | None = None,
-               mode: str | None = None) -> Iterator[tuple[int, np.ndarray]]:
+               mode: str | None = None, accumulate: str = "count") -> Iterator[tuple[int, np.ndarray]]:
         """Yield ``(k, Ψ[D(I_k)])`` for windows ``k`` of ``stream`` (Eq. 4 with ``W = window``).
 
         Frames are linear RGB ``(H, W, 3) float32`` in spikes per readout for a colour stream
@@ -195,10 +195,13 @@ class Denoiser:
         first plane; ``count`` windows (default: every whole window).  With the guard on and
         ``window`` longer than :data:`~spikeref.denoise.guard.NOISE_WINDOW` planes, the guard
         measures the noise on the window's first ``NOISE_WINDOW`` planes (``short=`` of
-        :meth:`__call__`).
+        :meth:`__call__`).  ``accumulate="charge"`` takes each window's timing-aware charge
+        (:func:`spikeref.charge.charge_rates`; not in the paper) instead of Eq. 4's count; the
+        guard then measures the noise on the window itself.
         """
-        from spikeref.accumulate import accumulate
+        from spikeref.accumulate import accumulate as eq4
         from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
+        from spikeref.charge import charge_rates
 
         if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
             raise ValueError(f"window must be a positive number of planes; got {window!r}")
@@ -206,6 +209,8 @@ class Denoiser:
             raise ValueError(f"start must be a plane index ≥ 0; got {start!r}")
         if count is not None and (isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1):
             raise ValueError(f"count must be a positive number of frames (or None for all); got {count!r}")
+        if accumulate not in ("count", "charge"):
+            raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
         if stream.height % 2 or stream.width % 2:
             raise ValueError(f"the stream must have even height and width; got {stream.height}×{stream.width}")
         total = (len(stream) - start) // window
@@ -214,10 +219,13 @@ class Denoiser:
         count = total if count is None else min(int(count), total)
         for k in range(count):
             first = start + k * window
-            rates = accumulate(stream, window, start=first, count=1)[0]
+            if accumulate == "charge":
+                rates = charge_rates(stream, window, start=first, count=1)[0]
+            else:
+                rates = eq4(stream, window, start=first, count=1)[0]
             extra = {}
-            if self.guard == "sure" and window > NOISE_WINDOW:
-                short = accumulate(stream, NOISE_WINDOW, start=first, count=1)[0]
+            if self.guard == "sure" and window > NOISE_WINDOW and accumulate == "count":
+                short = eq4(stream, NOISE_WINDOW, start=first, count=1)[0]
                 extra = {"short": bayer_planes(short), "short_window": NOISE_WINDOW}
             clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window, **extra))
             yield k, (demosaic_bilinear(clean, stream.cfa) if stream.cfa else clean)

@@ -26,6 +26,11 @@ One step:
    ``k < 16`` both means run over the hidden pixels of the drawn masks — with ``k = 16`` that
    is every pixel, the paper's loss); Adam, learning rate on a cosine from ``lr`` to ``lr/100``.
 
+With ``accumulate="charge"`` (not in the paper) step 2 takes the charge each pixel integrated over
+the window, read from its spike times around the window's edges (:func:`spikeref.charge.window_charge`),
+instead of the count: a network for ``ReconstructParams(accumulate="charge")`` (:mod:`spikeref.pipeline`)
+and ``spikeref denoise --accumulate charge``, whose input noise is not the count's.
+
 Cost: a step runs the network with gradient on ``k·4·batch`` images and without on
 ``4·batch``; the backward pass dominates, so ``k = 1`` costs an order of magnitude less than
 ``k = 16`` for the same crops (``docs/results.md``, "Training on two cores": the CPU recipe of
@@ -103,6 +108,10 @@ class TrainConfig:
         the same crops).
     seed : int
         Seed of the crops, augmentations and initial weights.
+    accumulate : {"count", "charge"}
+        What a window gives the network: its spike count (Eq. 4, default) or the timing-aware charge
+        (:mod:`spikeref.charge`, not in the paper; the crop's planes within
+        :data:`~spikeref.charge.DEFAULT_MARGIN` of the window are read too).
     """
 
     width: int = 16
@@ -121,6 +130,7 @@ class TrainConfig:
     checkpoint_every: int = 500
     masks_per_step: int = 1
     seed: int = 0
+    accumulate: str = "count"
 
     def __post_init__(self):
         for name in ("width", "depth", "steps", "batch", "patch", "window_min", "window_max", "cell",
@@ -138,6 +148,8 @@ class TrainConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number ≥ 0; got {v!r}")
+        if self.accumulate not in ("count", "charge"):
+            raise ValueError(f"accumulate must be count or charge; got {self.accumulate!r}")
         if self.masks_per_step > self.cell**2:
             raise ValueError(f"masks_per_step ({self.masks_per_step}) must be ≤ cell² = {self.cell**2}")
         UNetSpec(width=self.width, depth=self.depth)  # validates the shape
@@ -162,9 +174,15 @@ class CropSampler:
         Where the spike bits are unpacked and counted.
     domain : {"count", "rate"}
         Images of spike counts ``I·W`` or of firing rates ``I`` (:attr:`TrainConfig.input_domain`).
+    accumulate : {"count", "charge"}
+        The window's spike count (Eq. 4) or its timing-aware charge (:attr:`TrainConfig.accumulate`).
     """
 
-    def __init__(self, streams, patch: int, window_min: int, window_max: int, device="cpu", domain="rate"):
+    def __init__(self, streams, patch: int, window_min: int, window_max: int, device="cpu", domain="rate",
+                 accumulate: str = "count"):
+        if accumulate not in ("count", "charge"):
+            raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
+        self.accumulate = accumulate
         if domain not in INPUT_DOMAINS:
             raise ValueError(f"domain must be one of {', '.join(INPUT_DOMAINS)}; got {domain!r}")
         self.domain = domain
@@ -189,8 +207,32 @@ class CropSampler:
         lo = min(self.window_min, hi)
         return int(min(hi, max(lo, round(math.exp(rng.uniform(math.log(lo), math.log(hi + 0.5)))))))
 
+    def _charge(self, stream, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
+        """The charge (:func:`spikeref.charge.window_charge`) of planes ``[t, t+w)`` over the crop."""
+        from spikeref.charge import DEFAULT_MARGIN, window_charge
+
+        s = 2 * self.patch
+        lo, hi = max(0, t - DEFAULT_MARGIN), min(len(stream), t + w + DEFAULT_MARGIN)
+        if stream.array is not None:
+            block = np.ascontiguousarray(stream.array[lo:hi, y0 : y0 + s, x0 : x0 + s], dtype=np.uint8)
+        else:
+            h, wf = stream.height, stream.file_width
+            r_lo = h - (y0 + s)
+            bit_lo = r_lo * wf + stream.col_offset + x0
+            byte_lo = bit_lo // 8
+            byte_hi = ((r_lo + s - 1) * wf + stream.col_offset + x0 + s + 7) // 8
+            raw = torch.from_numpy(np.array(stream.packed[lo:hi, byte_lo:byte_hi]))
+            bits = ((raw[..., None] >> self._shifts.cpu()) & 1).reshape(hi - lo, -1)  # LSB first
+            starts = torch.arange(s) * wf + (bit_lo - 8 * byte_lo)
+            idx = starts[:, None] + torch.arange(s)[None, :]
+            block = np.ascontiguousarray(bits[:, idx].flip(1).numpy(), dtype=np.uint8)  # stored bottom-up
+        charge = window_charge(block, w, start=t - lo, count=1, margin=DEFAULT_MARGIN)[0]
+        return torch.from_numpy(charge).to(self.device)
+
     def _counts(self, stream, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
         """Spike counts of planes ``[t, t+w)`` over the upright crop ``[y0, y0+s) × [x0, x0+s)``."""
+        if self.accumulate == "charge":
+            return self._charge(stream, t, w, y0, x0)
         s = 2 * self.patch
         if stream.array is not None:
             block = np.ascontiguousarray(stream.array[t : t + w, y0 : y0 + s, x0 : x0 + s])
@@ -391,7 +433,8 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         torch.backends.cuda.matmul.allow_tf32 = True
         torch.backends.cudnn.allow_tf32 = True
         torch.backends.cudnn.benchmark = True
-    sampler = CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, device=dev, domain=cfg.input_domain)
+    sampler = CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, device=dev, domain=cfg.input_domain,
+                          accumulate=cfg.accumulate)
 
     torch.manual_seed(cfg.seed)
     model = TorchUNet(cfg.spec).to(dev, memory_format=torch.channels_last)
@@ -446,6 +489,7 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
                      f", {cfg.masks_per_step} of {cfg.cell**2} masks per image and step, loss on their hidden pixels"),
         "config": asdict(cfg),
         "input_domain": cfg.input_domain,
+        "accumulate": cfg.accumulate,
         "steps_run": step,
         "final_loss": summary["final_loss"],
         "loss_per_percent": per_percent,

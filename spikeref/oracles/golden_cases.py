@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 
 from spikeref.accumulate import accumulate as _accumulate
+from spikeref import charge as _charge
 from spikeref import baselines as _bl
 from spikeref import bayer as _bayer
 from spikeref.io import dat as _dat
@@ -23,6 +24,7 @@ from spikeref.oracles import baselines as o_bl
 from spikeref.oracles import bayer as o_bayer
 from spikeref.oracles import blindspot as o_bs
 from spikeref.oracles import camera as o_cam
+from spikeref.oracles import charge as o_charge
 from spikeref.oracles import dat as o_dat
 from spikeref.oracles import effects as o_fx
 from spikeref.oracles import metrics as o_met
@@ -114,6 +116,11 @@ def _revisible_outputs(fn, i):
 
 def _inputs_eq4():
     return {"spikes": _spikes(3, (25, 4, 6), 0.3), "window": np.int64(5), "start": np.int64(2)}
+
+
+def _inputs_charge():
+    return {"spikes": _spikes(13, (60, 4, 6), 0.25), "window": np.int64(5), "start": np.int64(12),
+            "count": np.int64(6), "margin": np.int64(9)}
 
 
 def _inputs_mosaic():
@@ -581,6 +588,21 @@ CASES: list[GoldenCase] = [
         lambda i: {"frames": _accumulate(i["spikes"], int(i["window"]), start=int(i["start"]))},
         atol=1e-7,
         spec="docs/spec/accumulate.md#eq4_accumulate",
+    ),
+    GoldenCase(
+        "window_charge", "— (not in the paper; a timing-aware Eq. 4, ReconstructParams(accumulate=\"charge\"))",
+        "spikeref.charge.window_charge", "spikeref.oracles.charge.window_charge_oracle",
+        "The charge of windows [start + kW, start + (k+1)W): the window's spike count plus the elapsed fraction "
+        "φ(b) = (b − t_prev − ½)/(t_next − t_prev) of the inter-spike interval straddling its end boundary, minus "
+        "that of its start boundary; t_prev the last spike in [b − margin, b), t_next the first in [b, b + margin), "
+        "φ = ½ where either is missing; clipped below at 0.",
+        _inputs_charge,
+        lambda i: {"charge": o_charge.window_charge_oracle(i["spikes"], int(i["window"]), int(i["start"]),
+                                                           int(i["count"]), int(i["margin"]))},
+        lambda i: {"charge": _charge.window_charge(i["spikes"], int(i["window"]), int(i["start"]), int(i["count"]),
+                                                   int(i["margin"]))},
+        atol=1e-6,
+        spec="docs/spec/accumulate.md#window_charge",
     ),
     GoldenCase(
         "bayer_planes", "§4.1 (Fig. 3a)", "spikeref.bayer.bayer_planes", "spikeref.oracles.bayer.bayer_planes_oracle",
