@@ -100,6 +100,41 @@ Immerkær's estimator over a 15×15 box: spike noise depends on the rate) carrie
 the pyramid's blur; ``ρ`` is ``correlation`` (default :func:`estimate_noise_correlation`), clipped
 below at :data:`MIN_CORRELATION`.  With ``noise = 0`` the option is the plain search with zero motion
 as one more candidate at every level.  The sub-pixel fit is unchanged.
+
+Sub-pixel refinement by Lucas–Kanade (an option: ``AlignParams.refine = "lk"``; not in the paper or HDR+)
+-------------------------------------------------------------------------------------------------------
+Measured on the benchmark scenes (issue 32, ``scripts/study_align_lk.py``): with flows on smoothed
+frames, HDR+'s quadratic through the 3×3 L2 distances is the largest part of the flow error, and it
+grows with the step (end-point error 0.12 → 0.24 plane px from step 0 to step 2 on a photograph
+turning 0.4° per window, 0.12 → 0.27 on a static scene): around a kept zero vector the fit follows the
+noise, and at steps ≥ 1 the frames of neighbouring windows share most of their support, so their
+common noise — warped by the previous step's flows — gives the cost surface a minimum of its own.
+``refine="lk"`` replaces the fit by :data:`LK_ITERATIONS` Gauss–Newton steps of a translation per
+tile from the integer vector: ``Δu = G⁻¹ Σ g (ref(p) − alt(p + u))`` with ``g`` the central-difference
+gradient of ``alternate`` (one-sided at the border, as ``numpy.gradient``) and both sampled bilinearly at ``p + u``,
+``G = Σ g gᵀ``; a step is clamped to ±1 pixel per component, a singular ``G`` stops the steps, and
+samples whose moved position lies outside the image are left out.  Identical images give ``Δu = 0``
+(zero flow stays exactly zero).
+
+``smoothness = λ > 0`` then regularises the tile field by each tile's confidence: with
+``J_i = G_i / v_i`` (``v_i`` the tile's mean noise variance, the ``noise`` map as for the noise-aware
+search), the vectors minimise ``Σ_i (u_i − û_i)ᵀ J_i (u_i − û_i) + λ Σ_{i~j} |u_i − u_j|²`` over the
+4-neighbours, by :data:`SMOOTHNESS_SWEEPS` Jacobi sweeps from the Lucas–Kanade vectors ``û``: a tile
+whose texture pins its motion keeps it, one whose estimate is mostly noise (flat, dark) takes its
+neighbours'.  ``λ`` is in units of one pixel's information (a pixel whose gradient equals the noise
+standard deviation).
+
+Per-pixel zero-motion test (an option: ``AlignParams.zero_test = z``; not in the paper or HDR+)
+---------------------------------------------------------------------------------------------
+Tile vectors interpolated between tile centres carry a moving object's motion onto the still pixels
+beside it (the benchmark's fan: 0.64 plane px of mean flow on its still background, where warping
+then costs more than alignment gains).  :func:`align` (and the pipeline, on the raw 2×2 luma) sets the
+dense flow to zero at pixels where the zero offset explains the two frames better than the flow by
+more than ``z`` standard deviations of what noise gives, summed over a :data:`ZERO_TEST_BOX`-pixel box
+(:func:`zero_motion_test`: the expected noise-only difference of the two squared residuals — bilinear
+interpolation lowers the noise of the warped frame, and adjacent windows' noise is anti-correlated at
+the zero offset — is taken out, and its variance under Gaussian noise scales the threshold).  Where the
+data cannot tell the two apart (flat regions), the flow is kept.
 """
 
 from __future__ import annotations
@@ -115,6 +150,11 @@ __all__ = [
     "PYRAMID_KERNEL",
     "PD_TOLERANCE",
     "SLACK",
+    "REFINES",
+    "LK_ITERATIONS",
+    "SMOOTHNESS_SWEEPS",
+    "ZERO_TEST_BOX",
+    "zero_motion_test",
     "AlignParams",
     "DEFAULT_PARAMS",
     "luma",
@@ -136,6 +176,15 @@ PYRAMID_KERNEL = (1.0, 4.0, 6.0, 4.0, 1.0)
 #: fraction of the largest of the nine distances: a guard against round-off on degenerate surfaces
 #: (e.g. a tile whose samples are all clamped to one edge row, where ``A`` is singular).
 PD_TOLERANCE = 1e-9
+
+#: The sub-pixel refinements of :attr:`AlignParams.refine`.
+REFINES = ("quadratic", "lk")
+#: Gauss–Newton steps of ``refine="lk"`` per tile.
+LK_ITERATIONS = 2
+#: Side (pixels) of the box over which the per-pixel zero-motion test (:attr:`AlignParams.zero_test`) sums.
+ZERO_TEST_BOX = 9
+#: Jacobi sweeps of the regularisation of ``refine="lk"`` with ``smoothness > 0``.
+SMOOTHNESS_SWEEPS = 30
 
 #: The sub-pixel offset is accepted when ``|u*| ≤ 1 + SLACK`` in both components; the slack keeps the
 #: decision the same in the kernel and the oracle when ``|u*| = 1`` exactly (quantised input).
@@ -195,6 +244,22 @@ class AlignParams:
         ``prefer_centre`` standard deviations of the distance difference that noise alone gives;
         and the zero offset's distance is corrected for anti-correlated noise.  ``0`` (default):
         off, the plain arg-min of HDR+.
+    refine : {"quadratic", "lk"}
+        The sub-pixel step at the finest level (with ``subpixel=True``): ``"quadratic"`` (default) —
+        HDR+'s least-squares quadratic through the 3×3 L2 distances around the integer vector;
+        ``"lk"`` (not in the paper or HDR+) — :data:`LK_ITERATIONS` Lucas–Kanade (Gauss–Newton)
+        steps of a translation per tile, starting from the integer vector ("Sub-pixel refinement by
+        Lucas–Kanade" in the module doc).
+    smoothness : float
+        With ``refine="lk"`` (not in the paper or HDR+): weight ``λ ≥ 0`` of the pull between
+        neighbouring tile vectors when the refined field is regularised by the tiles' confidence
+        (their Lucas–Kanade information over the noise variance, module doc).  ``0`` (default):
+        off, each tile keeps its own estimate.
+    zero_test : float or None
+        Per-pixel zero-motion test on the dense flow (not in the paper or HDR+; "Per-pixel zero-motion
+        test" in the module doc): the flow is set to zero at pixels where the zero offset explains the
+        two frames better than the flow by more than ``zero_test`` standard deviations of what noise
+        gives, over a :data:`ZERO_TEST_BOX`-pixel box.  ``None`` (default): off.
     """
 
     levels: int = 4
@@ -203,6 +268,9 @@ class AlignParams:
     search_radius: tuple[int, ...] = (1, 4, 4, 4)
     subpixel: bool = True
     prefer_centre: float = 0.0
+    refine: str = "quadratic"
+    smoothness: float = 0.0
+    zero_test: float | None = None
 
     def __post_init__(self):
         if not _is_int(self.levels) or self.levels < 1:
@@ -226,6 +294,23 @@ class AlignParams:
             raise ValueError(f"prefer_centre must be a finite number ≥ 0 (standard deviations of noise; 0: off); "
                              f"got {z!r}")
         object.__setattr__(self, "prefer_centre", float(z))
+        if not isinstance(self.refine, str) or self.refine not in REFINES:
+            raise ValueError(f"refine must be one of {', '.join(REFINES)}; got {self.refine!r}")
+        lam = self.smoothness
+        if isinstance(lam, (bool, np.bool_)) or not isinstance(lam, (int, float, np.integer, np.floating)) \
+                or not np.isfinite(lam) or lam < 0:
+            raise ValueError(f"smoothness must be a finite number ≥ 0 (0: off); got {lam!r}")
+        if lam > 0 and self.refine != "lk":
+            raise ValueError("smoothness regularises the Lucas–Kanade refinement: it needs refine='lk' "
+                             f"(got refine={self.refine!r}, smoothness={lam!r})")
+        object.__setattr__(self, "smoothness", float(lam))
+        zt = self.zero_test
+        if zt is not None:
+            if isinstance(zt, (bool, np.bool_)) or not isinstance(zt, (int, float, np.integer, np.floating)) \
+                    or not np.isfinite(zt) or zt < 0:
+                raise ValueError(f"zero_test must be None (off) or a finite number ≥ 0 (standard deviations of "
+                                 f"noise); got {zt!r}")
+            object.__setattr__(self, "zero_test", float(zt))
 
     def tile_for_step(self, step: int) -> int:
         """Finest-level tile size for pipeline step ``step`` (≥ 0); the last entry for late steps."""
@@ -264,8 +349,8 @@ class AlignParams:
         AlignParams or None
             ``self`` when it fits already (``n ≥ min_size(step)`` for every entry of
             ``tile_by_step``); ``None`` when not even one level fits: ``n < 2`` (a tile is at
-            least 2×2), or ``n < 3`` with ``prefer_centre > 0`` (its noise estimate,
-            :func:`local_noise`, needs 3×3 pixels).  The pipeline then uses zero flow.
+            least 2×2), or ``n < 3`` with ``prefer_centre > 0``, ``smoothness > 0`` or a ``zero_test`` (their noise
+            estimate, :func:`local_noise`, needs 3×3 pixels).  The pipeline then uses zero flow.
         """
         for name, v in (("height", height), ("width", width)):
             if not _is_int(v) or v < 1:
@@ -273,7 +358,7 @@ class AlignParams:
         n = int(min(height, width))
         if n >= max(self.min_size(step) for step in range(len(self.tile_by_step))):
             return self
-        if n < 2 or (self.prefer_centre > 0 and n < 3):
+        if n < 2 or ((self.prefer_centre > 0 or self.smoothness > 0 or self.zero_test is not None) and n < 3):
             return None
         levels = self.levels
         while levels > 1 and self.coarse_tile * 2 ** (levels - 1) > n:
@@ -281,7 +366,8 @@ class AlignParams:
         largest = n - n % 2
         return AlignParams(levels=levels, tile_by_step=tuple(min(t, largest) for t in self.tile_by_step),
                            coarse_tile=self.coarse_tile, search_radius=self.search_radius[:levels],
-                           subpixel=self.subpixel, prefer_centre=self.prefer_centre)
+                           subpixel=self.subpixel, prefer_centre=self.prefer_centre, refine=self.refine,
+                           smoothness=self.smoothness, zero_test=self.zero_test)
 
 
 #: The default parameters (the default of every ``params`` argument).
@@ -485,6 +571,175 @@ def _subpixel(ref, alt, tile, best, out):
             out[i, j, 1] = bx + u_x
 
 
+@njit
+def _gradient(img, gy, gx):
+    """Central differences of ``img`` (one-sided at the border, as ``numpy.gradient``) into ``gy, gx`` (float64)."""
+    h, w = img.shape
+    for y in range(h):
+        for x in range(w):
+            if h == 1:
+                gy[y, x] = 0.0
+            elif y == 0:
+                gy[y, x] = np.float64(img[1, x]) - np.float64(img[0, x])
+            elif y == h - 1:
+                gy[y, x] = np.float64(img[h - 1, x]) - np.float64(img[h - 2, x])
+            else:
+                gy[y, x] = 0.5 * (np.float64(img[y + 1, x]) - np.float64(img[y - 1, x]))
+            if w == 1:
+                gx[y, x] = 0.0
+            elif x == 0:
+                gx[y, x] = np.float64(img[y, 1]) - np.float64(img[y, 0])
+            elif x == w - 1:
+                gx[y, x] = np.float64(img[y, w - 1]) - np.float64(img[y, w - 2])
+            else:
+                gx[y, x] = 0.5 * (np.float64(img[y, x + 1]) - np.float64(img[y, x - 1]))
+
+
+@njit(inline="always")
+def _bilinear3(img, gy, gx, y, x):
+    """Bilinear samples of ``img`` and its two gradient images at ``(y, x)``, clamped to the grid."""
+    h, w = img.shape
+    yc = min(max(y, 0.0), h - 1.0)
+    xc = min(max(x, 0.0), w - 1.0)
+    y0 = min(int(np.floor(yc)), h - 1)
+    x0 = min(int(np.floor(xc)), w - 1)
+    y1 = min(y0 + 1, h - 1)
+    x1 = min(x0 + 1, w - 1)
+    fy = yc - y0
+    fx = xc - x0
+    w00 = (1.0 - fy) * (1.0 - fx)
+    w01 = (1.0 - fy) * fx
+    w10 = fy * (1.0 - fx)
+    w11 = fy * fx
+    a = w00 * img[y0, x0] + w01 * img[y0, x1] + w10 * img[y1, x0] + w11 * img[y1, x1]
+    b = w00 * gy[y0, x0] + w01 * gy[y0, x1] + w10 * gy[y1, x0] + w11 * gy[y1, x1]
+    c = w00 * gx[y0, x0] + w01 * gx[y0, x1] + w10 * gx[y1, x0] + w11 * gx[y1, x1]
+    return a, b, c
+
+
+@njit(parallel=True)
+def _lucas_kanade(ref, alt, gy, gx, tile, best, iterations, out, info):
+    """``out (ny, nx, 2) float64``: ``best`` refined by Gauss–Newton steps of a translation per tile.
+
+    ``info (ny, nx, 3)`` receives ``(Σ g_y², Σ g_y g_x, Σ g_x²)`` of the last step (the tile's
+    Lucas–Kanade information, before dividing by the noise).  A step whose 2×2 system is singular
+    (relative tolerance :data:`PD_TOLERANCE` on the determinant) leaves the vector as it is; a step
+    is clamped to ``±1`` pixel per component.  Samples whose moved position lies outside ``alt``
+    are left out of the sums.
+    """
+    ny, nx = best.shape[0], best.shape[1]
+    h, w = alt.shape
+    stride = tile // 2
+    for t in prange(ny * nx):
+        i = t // nx
+        j = t % nx
+        oy = i * stride
+        ox = j * stride
+        uy = np.float64(best[i, j, 0])
+        ux = np.float64(best[i, j, 1])
+        syy = 0.0
+        syx = 0.0
+        sxx = 0.0
+        for it in range(iterations):
+            syy = 0.0
+            syx = 0.0
+            sxx = 0.0
+            ry = 0.0
+            rx = 0.0
+            iy = int(uy)
+            ix = int(ux)
+            for y in range(oy, oy + tile):
+                py = y + uy
+                if py < 0.0 or py > h - 1.0:  # samples outside the image are left out
+                    continue
+                for x in range(ox, ox + tile):
+                    px = x + ux
+                    if px < 0.0 or px > w - 1.0:
+                        continue
+                    if it == 0:  # the integer vector: the samples themselves (what bilinear gives there)
+                        a = np.float64(alt[y + iy, x + ix])
+                        ay = gy[y + iy, x + ix]
+                        ax = gx[y + iy, x + ix]
+                    else:
+                        a, ay, ax = _bilinear3(alt, gy, gx, py, px)
+                    e = np.float64(ref[y, x]) - a
+                    syy += ay * ay
+                    syx += ay * ax
+                    sxx += ax * ax
+                    ry += ay * e
+                    rx += ax * e
+            det = syy * sxx - syx * syx
+            if not det > PD_TOLERANCE * (syy + sxx) ** 2 or det <= 0.0:
+                break
+            dy = (sxx * ry - syx * rx) / det
+            dx = (syy * rx - syx * ry) / det
+            uy += min(max(dy, -1.0), 1.0)
+            ux += min(max(dx, -1.0), 1.0)
+        out[i, j, 0] = uy
+        out[i, j, 1] = ux
+        info[i, j, 0] = syy
+        info[i, j, 1] = syx
+        info[i, j, 2] = sxx
+
+
+def _regularise(vectors: np.ndarray, info: np.ndarray, variance: np.ndarray, lam: float,
+                sweeps: int = SMOOTHNESS_SWEEPS) -> np.ndarray:
+    """Tile vectors pulled towards their 4-neighbours by their confidence (``refine="lk"``, ``smoothness``).
+
+    Minimises ``Σ_i (u_i − û_i)ᵀ J_i (u_i − û_i) + λ Σ_{i~j} |u_i − u_j|²`` with ``J_i`` the tile's
+    Lucas–Kanade information over its mean noise variance, by :data:`SMOOTHNESS_SWEEPS` Jacobi sweeps
+    from ``û`` (each tile: ``u_i = (J_i + λ n_i I)⁻¹ (J_i û_i + λ Σ_j u_j)``, ``n_i`` its neighbours).
+    """
+    ny, nx = vectors.shape[:2]
+    if ny * nx == 1 or lam <= 0:
+        return vectors
+    out = np.empty_like(vectors)
+    _jacobi(np.ascontiguousarray(vectors, np.float64), np.ascontiguousarray(info, np.float64),
+            np.ascontiguousarray(np.maximum(variance, 1e-20), np.float64), float(lam), int(sweeps), out)
+    return out
+
+
+@njit
+def _jacobi(hat, info, variance, lam, sweeps, out):
+    """The Jacobi sweeps of :func:`_regularise` (``hat, out (ny, nx, 2)``, ``info (ny, nx, 3)``)."""
+    ny, nx = hat.shape[0], hat.shape[1]
+    cur = hat.copy()
+    for _ in range(sweeps):
+        for i in range(ny):
+            for j in range(nx):
+                sy = 0.0
+                sx = 0.0
+                n = 0
+                if i > 0:
+                    sy += cur[i - 1, j, 0]
+                    sx += cur[i - 1, j, 1]
+                    n += 1
+                if i < ny - 1:
+                    sy += cur[i + 1, j, 0]
+                    sx += cur[i + 1, j, 1]
+                    n += 1
+                if j > 0:
+                    sy += cur[i, j - 1, 0]
+                    sx += cur[i, j - 1, 1]
+                    n += 1
+                if j < nx - 1:
+                    sy += cur[i, j + 1, 0]
+                    sx += cur[i, j + 1, 1]
+                    n += 1
+                v = variance[i, j]
+                jyy = info[i, j, 0] / v
+                jyx = info[i, j, 1] / v
+                jxx = info[i, j, 2] / v
+                ayy = jyy + lam * n
+                axx = jxx + lam * n
+                det = ayy * axx - jyx * jyx
+                by = jyy * hat[i, j, 0] + jyx * hat[i, j, 1] + lam * sy
+                bx = jyx * hat[i, j, 0] + jxx * hat[i, j, 1] + lam * sx
+                out[i, j, 0] = (axx * by - jyx * bx) / det
+                out[i, j, 1] = (ayy * bx - jyx * by) / det
+        cur[...] = out
+
+
 @njit(inline="always")
 def _interp_index(p, c0, stride, n):
     """Bilinear taps of pixel ``p`` between tile centres ``c0 + i·stride``, clamped beyond the outer ones."""
@@ -614,7 +869,12 @@ def estimate_noise_correlation(reference, alternate) -> float:
     alt = _as_image(alternate, "alternate")
     if ref.shape != alt.shape:
         raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
-    total = estimate_noise(ref) + estimate_noise(alt)
+    return _noise_correlation(ref, alt, estimate_noise(ref), estimate_noise(alt))
+
+
+def _noise_correlation(ref: np.ndarray, alt: np.ndarray, var_ref: float, var_alt: float) -> float:
+    """:func:`estimate_noise_correlation` of checked images whose :func:`estimate_noise` is known."""
+    total = var_ref + var_alt
     if total <= 0:
         return 0.0
     diff = estimate_noise(ref.astype(np.float64) - alt.astype(np.float64))
@@ -685,12 +945,28 @@ def _check_correlation(correlation, ref, alt) -> float:
 def _tile_sums(values: np.ndarray, tile: int, shape: tuple[int, int]) -> np.ndarray:
     """``Σ`` of ``values`` over every tile of the grid ``shape`` (size ``tile``, stride ``tile/2``)."""
     c = np.zeros((values.shape[0] + 1, values.shape[1] + 1))
-    c[1:, 1:] = np.cumsum(np.cumsum(values, axis=0), axis=1)
+    _integral_image(np.ascontiguousarray(values, np.float64), c)  # = cumsum(cumsum(values, 0), 1), bit for bit
     s = tile // 2
     y0 = np.arange(shape[0]) * s
     x0 = np.arange(shape[1]) * s
     return (c[y0[:, None] + tile, x0[None, :] + tile] - c[y0[:, None], x0[None, :] + tile]
             - c[y0[:, None] + tile, x0[None, :]] + c[y0[:, None], x0[None, :]])
+
+
+@njit
+def _integral_image(values, c):
+    """``c[1:, 1:] = cumsum(cumsum(values, axis=0), axis=1)`` (the same sums in the same order)."""
+    h, w = values.shape
+    for j in range(w):
+        acc = 0.0
+        for i in range(h):
+            acc += values[i, j]
+            c[i + 1, j + 1] = acc
+    for i in range(h):
+        acc = 0.0
+        for j in range(w):
+            acc += c[i + 1, j + 1]
+            c[i + 1, j + 1] = acc
 
 
 def _thresholds(var_k: np.ndarray, factors: tuple[float, float], tile: int, shape, l2: bool, z: float,
@@ -716,6 +992,105 @@ def _thresholds(var_k: np.ndarray, factors: tuple[float, float], tile: int, shap
         variance = L1_DIFF_VARIANCE * s * _tile_sums(v, tile, shape)
         bias = np.sqrt(2.0 / np.pi) * (np.sqrt(1.0 - r) - 1.0) * _tile_sums(np.sqrt(2.0 * v), tile, shape)
     return np.ascontiguousarray(bias), np.ascontiguousarray(z * np.sqrt(variance))
+
+
+@njit
+def _zero_test_terms(ref, alt, flow, noise, rho, d_out, var_out):
+    """Per pixel: ``(r − a)² − (r − a_u)²`` less its noise-only mean, and that term's noise variance.
+
+    ``a_u`` is ``alt`` sampled bilinearly at ``p + flow(p)`` (position clamped to the image).  With noise
+    of variance ``v`` per image and correlation ``ρ`` at the same pixel: ``x = r − a`` has variance
+    ``2v(1 − ρ)``, ``y = r − a_u`` has ``v(1 + Σw² − 2ρ w₀)`` (``w`` the bilinear weights, ``w₀`` that of
+    the tap at ``p`` itself), ``cov(x, y) = v(1 + w₀)(1 − ρ)``; for Gaussian noise
+    ``var(x² − y²) = 2σ_x⁴ + 2σ_y⁴ − 4 cov²``.
+    """
+    h, w = ref.shape
+    for y in range(h):
+        for x in range(w):
+            uy = np.float64(flow[0, y, x])
+            ux = np.float64(flow[1, y, x])
+            sy = min(max(y + uy, 0.0), h - 1.0)
+            sx = min(max(x + ux, 0.0), w - 1.0)
+            y0 = min(int(np.floor(sy)), h - 1)
+            x0 = min(int(np.floor(sx)), w - 1)
+            y1 = min(y0 + 1, h - 1)
+            x1 = min(x0 + 1, w - 1)
+            fy = sy - y0
+            fx = sx - x0
+            au = ((1.0 - fy) * ((1.0 - fx) * alt[y0, x0] + fx * alt[y0, x1])
+                  + fy * ((1.0 - fx) * alt[y1, x0] + fx * alt[y1, x1]))
+            r = np.float64(ref[y, x])
+            dx0 = r - alt[y, x]
+            dxu = r - au
+            v = noise[y, x]
+            sw2 = ((1.0 - fy) ** 2 + fy * fy) * ((1.0 - fx) ** 2 + fx * fx)
+            w0 = max(0.0, 1.0 - abs(sy - y)) * max(0.0, 1.0 - abs(sx - x))
+            s_x = 2.0 * v * (1.0 - rho)
+            s_y = v * (1.0 + sw2 - 2.0 * rho * w0)
+            c = v * (1.0 + w0) * (1.0 - rho)
+            d_out[y, x] = dx0 * dx0 - dxu * dxu - (s_x - s_y)
+            var_out[y, x] = max(2.0 * s_x * s_x + 2.0 * s_y * s_y - 4.0 * c * c, 0.0)
+
+
+def zero_motion_test(flow, reference, alternate, z: float, noise=None, correlation=None,
+                     box: int = ZERO_TEST_BOX) -> np.ndarray:
+    """The flow with zero motion where zero explains the frames better (``AlignParams.zero_test``; not in the paper).
+
+    Per pixel ``p``, ``d(p) = (r(p) − a(p))² − (r(p) − a(p + F(p)))²`` less its mean under noise alone, summed
+    over the ``box × box`` pixels around ``p`` (SciPy's ``uniform_filter``, ``mode="nearest"``); where that
+    sum is below ``−z`` standard deviations of what noise gives (:func:`_zero_test_terms`), the zero offset
+    fits the data significantly better than the flow and ``F(p)`` becomes 0.  Where the two are not told
+    apart (flat regions) the flow is kept.
+
+    Parameters
+    ----------
+    flow : ndarray ``(2, h, w)`` float
+        The dense flow (:func:`align`'s convention).
+    reference, alternate : ndarray ``(h, w)`` float
+        The frames the test compares (the pipeline: the raw 2×2 luma, not smoothed: the noise model is
+        white noise per pixel).
+    z : float
+        Standard deviations (≥ 0).
+    noise : float or ndarray ``(h, w)``, optional
+        Noise variance per pixel of each frame; default :func:`local_noise`, averaged.
+    correlation : float, optional
+        Correlation of the two frames' noise at the same pixel (clipped below at :data:`MIN_CORRELATION`);
+        default :func:`estimate_noise_correlation`.
+    box : int
+        Odd side of the box, ≥ 1.
+
+    Returns
+    -------
+    ndarray ``(2, h, w)`` float32
+    """
+    ref = _as_image(reference, "reference")
+    alt = _as_image(alternate, "alternate")
+    if ref.shape != alt.shape:
+        raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
+    f = np.array(flow, dtype=np.float32)
+    if f.shape != (2,) + ref.shape or not np.all(np.isfinite(f)):
+        raise ValueError(f"flow must be a finite (2, {ref.shape[0]}, {ref.shape[1]}) array; got {f.shape}")
+    if isinstance(z, (bool, np.bool_)) or not np.isfinite(z) or z < 0:
+        raise ValueError(f"z must be a finite number ≥ 0; got {z!r}")
+    if not _is_int(box) or box < 1 or box % 2 == 0:
+        raise ValueError(f"box must be an odd integer ≥ 1; got {box!r}")
+    v = _noise_map(noise, ref.shape, ref, alt)
+    rho = _check_correlation(correlation, ref, alt)
+    return _zero_motion(np.ascontiguousarray(f, np.float32), ref, alt, float(z), v, rho, int(box))
+
+
+def _zero_motion(flow: np.ndarray, ref: np.ndarray, alt: np.ndarray, z: float, noise: np.ndarray, rho: float,
+                 box: int) -> np.ndarray:
+    """:func:`zero_motion_test` on checked input (float32 images and flow, a float64 noise map); ``flow`` is changed."""
+    from scipy.ndimage import uniform_filter
+
+    d = np.empty(ref.shape, np.float64)
+    var = np.empty(ref.shape, np.float64)
+    _zero_test_terms(ref, alt, flow, noise, rho, d, var)
+    total = uniform_filter(d, box, mode="nearest")
+    spread = uniform_filter(var, box, mode="nearest")
+    flow[:, total < -z * np.sqrt(spread / (box * box))] = 0.0
+    return flow
 
 
 # ----------------------------------------------------------------------------- public
@@ -745,16 +1120,42 @@ def luma(planes) -> np.ndarray:
 
 
 def _blur_decimate(image: np.ndarray) -> np.ndarray:
-    """One pyramid step: 5-tap binomial blur (vertical, then horizontal; edge replicate), keep even rows/cols."""
+    """One pyramid step: 5-tap binomial blur (vertical, then horizontal; edge replicate), keep even rows/cols.
+
+    Only the kept rows and columns are computed, with the arithmetic of the whole-image NumPy
+    expression (``(k0·p0 + k1·p1 + k2·p2 + k3·p3 + k4·p4) / 16`` in float64, left to right), so the
+    result is the same to the bit.
+    """
+    img = np.ascontiguousarray(image)
+    h, w = img.shape
+    out = np.empty(((h + 1) // 2, (w + 1) // 2), np.float32)
+    _blur_decimate_kernel(img, out)
+    return out
+
+
+@njit
+def _blur_decimate_kernel(img, out):
     k0, k1, k2, k3, k4 = PYRAMID_KERNEL
-    p = np.pad(image.astype(np.float64), ((2, 2), (0, 0)), mode="edge")
-    n = image.shape[0]
-    v = (k0 * p[0:n] + k1 * p[1:n + 1] + k2 * p[2:n + 2] + k3 * p[3:n + 3] + k4 * p[4:n + 4]) / 16.0
-    v = v[::2]
-    p = np.pad(v, ((0, 0), (2, 2)), mode="edge")
-    m = image.shape[1]
-    out = (k0 * p[:, 0:m] + k1 * p[:, 1:m + 1] + k2 * p[:, 2:m + 2] + k3 * p[:, 3:m + 3] + k4 * p[:, 4:m + 4]) / 16.0
-    return np.ascontiguousarray(out[:, ::2], dtype=np.float32)
+    h, w = img.shape
+    oh, ow = out.shape
+    v = np.empty((oh, w))
+    for i in range(oh):
+        y = 2 * i
+        r0 = max(y - 2, 0)
+        r1 = max(y - 1, 0)
+        r3 = min(y + 1, h - 1)
+        r4 = min(y + 2, h - 1)
+        for x in range(w):
+            v[i, x] = (k0 * np.float64(img[r0, x]) + k1 * np.float64(img[r1, x]) + k2 * np.float64(img[y, x])
+                       + k3 * np.float64(img[r3, x]) + k4 * np.float64(img[r4, x])) / 16.0
+    for i in range(oh):
+        for j in range(ow):
+            x = 2 * j
+            c0 = max(x - 2, 0)
+            c1 = max(x - 1, 0)
+            c3 = min(x + 1, w - 1)
+            c4 = min(x + 2, w - 1)
+            out[i, j] = (k0 * v[i, c0] + k1 * v[i, c1] + k2 * v[i, x] + k3 * v[i, c3] + k4 * v[i, c4]) / 16.0
 
 
 def gaussian_pyramid(image, levels: int) -> list[np.ndarray]:
@@ -821,6 +1222,12 @@ def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAU
         Non-2-D, non-finite or mismatched input, a bad ``step``, or a frame smaller than
         ``params.min_size(step)`` (the message gives the minimum).
     """
+    vectors, tile, _ = _align_tiles(reference, alternate, step, params, noise, correlation)
+    return vectors, tile
+
+
+def _align_tiles(reference, alternate, step, params, noise, correlation):
+    """:func:`align_tiles`, and the checked level-0 noise map (float64) when one was made, else None."""
     params = _check_params(params)
     step = _check_step(step)
     ref = _as_image(reference, "reference")
@@ -836,19 +1243,20 @@ def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAU
                          f"{need}×{need}")
     ref_pyr = gaussian_pyramid(ref, params.levels)
     alt_pyr = gaussian_pyramid(alt, params.levels)
-    noise_pyr = factors = None
+    noise_pyr = factors = noise0 = None
     rho = 0.0
+    if params.prefer_centre > 0 or (params.subpixel and params.smoothness > 0):
+        noise0 = _noise_map(noise, ref.shape, ref, alt)
+    elif noise is not None:  # validated even when unused
+        _noise_map(noise, ref.shape, ref, alt)
     if params.prefer_centre > 0:
-        noise_pyr = [_noise_map(noise, ref.shape, ref, alt)]
+        noise_pyr = [noise0]
         for _ in range(params.levels - 1):  # the local mean variance under each level's pixels
             noise_pyr.append(_blur_decimate(noise_pyr[-1]).astype(np.float64))
         factors = _level_noise_factors(params.levels)
         rho = _check_correlation(correlation, ref, alt)
-    else:  # validated even when unused
-        if noise is not None:
-            _noise_map(noise, ref.shape, ref, alt)
-        if correlation is not None:
-            _check_correlation(correlation, ref, alt)
+    elif correlation is not None:  # validated even when unused
+        _check_correlation(correlation, ref, alt)
     vectors = None  # integer vectors of the previous (coarser) level
     for k in range(params.levels - 1, -1, -1):
         t = tile if k == 0 else params.coarse_tile
@@ -867,11 +1275,22 @@ def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAU
         vectors = np.empty(shape, np.int64)
         _search(r_img, a_img, t, centre, params.search_radius[k], k > 0, bias, thresh, vectors)
     out = np.empty(vectors.shape, np.float32)
-    if params.subpixel:
+    if params.subpixel and params.refine == "lk":
+        refined = np.empty(vectors.shape, np.float64)
+        info = np.empty(vectors.shape[:2] + (3,), np.float64)
+        gy = np.empty(alt_pyr[0].shape)
+        gx = np.empty(alt_pyr[0].shape)
+        _gradient(alt_pyr[0], gy, gx)
+        _lucas_kanade(ref_pyr[0], alt_pyr[0], gy, gx, tile, vectors, LK_ITERATIONS, refined, info)
+        if params.smoothness > 0:
+            variance = _tile_sums(noise0, tile, vectors.shape[:2]) / (tile * tile)
+            refined = _regularise(refined, info, variance, params.smoothness)
+        out[...] = refined
+    elif params.subpixel:
         _subpixel(ref_pyr[0], alt_pyr[0], tile, vectors, out)
     else:
         out[...] = vectors
-    return out, tile
+    return out, tile, noise0
 
 
 def flow_from_tiles(vectors, tile: int, shape) -> np.ndarray:
@@ -917,7 +1336,7 @@ def flow_from_tiles(vectors, tile: int, shape) -> np.ndarray:
 
 
 def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PARAMS, noise=None,
-          correlation=None) -> np.ndarray:
+          correlation=None, raw=None) -> np.ndarray:
     """Dense flow from ``reference`` to ``alternate``: HDR+ tile alignment, then bilinear interpolation.
 
     ``align(r, a, step, params) == flow_from_tiles(*align_tiles(r, a, step, params), r.shape)``.
@@ -937,6 +1356,10 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
     correlation : float, optional
         Correlation of the images' noise at the same pixel, for ``params.prefer_centre > 0``
         (:func:`align_tiles`).
+    raw : (ndarray, ndarray), optional
+        The frames :func:`zero_motion_test` compares when ``params.zero_test`` is set (``noise`` and
+        ``correlation`` describe them); default ``(reference, alternate)``.  The pipeline gives the
+        2×2 luma before smoothing.
 
     Returns
     -------
@@ -944,10 +1367,19 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
         ``(dy, dx)`` in plane pixels with ``alternate[y + dy, x + dx] ≈ reference[y, x]`` —
         ``F(x, t, t')`` of Eq. 14–15 for reference window ``t`` and alternate window ``t'``.
     """
-    vectors, tile = align_tiles(reference, alternate, step, params, noise, correlation)
+    vectors, tile, noise0 = _align_tiles(reference, alternate, step, params, noise, correlation)
     h, w = np.shape(reference)
     out = np.empty((2, h, w), np.float32)
     _flow_from_tiles(vectors, tile, out)
+    if params.zero_test is not None:
+        r_img, a_img = (reference, alternate) if raw is None else raw
+        r_img, a_img = _as_image(r_img, "raw reference"), _as_image(a_img, "raw alternate")
+        if r_img.shape != (h, w) or a_img.shape != (h, w):
+            raise ValueError(f"raw must be two images of the reference's shape {(h, w)}; got {r_img.shape} and "
+                             f"{a_img.shape}")
+        v = noise0 if noise is not None and noise0 is not None else _noise_map(noise, (h, w), r_img, a_img)
+        rho = _check_correlation(correlation, r_img, a_img)
+        out = _zero_motion(out, r_img, a_img, params.zero_test, v, rho, ZERO_TEST_BOX)
     return out
 
 

@@ -39,6 +39,10 @@ Beyond the paper (the defaults of :class:`ReconstructParams`, each measured on t
   every path (:mod:`spikeref.compose`): one cubic resample per window instead of ``L``
   bilinear ones.  ``"progressive"`` is Eq. 14–15; ``"chained"`` (a speed option) composes only
   the step-0 flows, so the frames and flows of steps ``1 … L−1`` are never made.
+* ``AlignParams(refine="lk", smoothness=300, zero_test=2)`` (the default here): the sub-pixel part of
+  each tile vector by Lucas–Kanade steps instead of HDR+'s quadratic fit, the tile field regularised
+  by each tile's confidence over the noise, and zero motion per pixel where zero explains the raw
+  frames better than the flow (:mod:`spikeref.align`).
 * ``AlignParams.prefer_centre > 0`` (3 by default here; ``AlignParams()`` alone keeps the plain
   HDR+ search) turns on the noise-aware search of :mod:`spikeref.align`; the pipeline tells it
   the noise of ``I_l``, measured on the 2×2 luma of the frames before denoising (variance map
@@ -84,7 +88,8 @@ from spikeref.warp import warp_average, warp_spike_windows
 
 __all__ = ["ReconstructParams", "ReconstructedFrame", "Reconstructor", "reconstruct", "frame_range",
            "support_planes", "exposure_planes", "FLOW_FRAMES", "FLOW_SMOOTHING_SIGMA", "WARPS", "DEFAULT_PREFER_CENTRE",
-           "flow_luma", "PRESETS", "STAGES", "StageProfile"]
+           "DEFAULT_REFINE", "DEFAULT_SMOOTHNESS", "DEFAULT_ZERO_TEST", "default_align_params",
+           "flow_luma", "PRESETS", "STAGES", "StageProfile", "ACCUMULATE"]
 
 #: What the flow of each step is estimated on: ``"denoised"`` — the 2×2 luma of ``D(I_l)``, as
 #: Fig. 3(b) — or ``"smoothed"`` — the 2×2 luma of ``I_l`` itself, smoothed by a Gaussian.
@@ -93,6 +98,20 @@ FLOW_FRAMES = ("denoised", "smoothed")
 #: paper): chosen among 0, 2, 3, 4 on the real outdoor recording and the benchmark scenes
 #: (``scripts/study_align_real.py``, docs/results.md).
 DEFAULT_PREFER_CENTRE = 3.0
+#: ``AlignParams.refine`` of the default reconstruction (not in the paper or HDR+): Lucas–Kanade steps
+#: instead of HDR+'s quadratic fit for the sub-pixel part (docs/results.md, issue 32).
+DEFAULT_REFINE = "lk"
+#: ``AlignParams.smoothness`` of the default reconstruction (not in the paper or HDR+): the noise-weighted
+#: pull between neighbouring tile vectors, chosen among 0, 30, 100, 300, 1000 on the benchmark scenes and
+#: the real recording (``scripts/study_align_lk.py``).
+DEFAULT_SMOOTHNESS = 300.0
+#: ``AlignParams.zero_test`` of the default reconstruction (not in the paper or HDR+): the per-pixel
+#: zero-motion test at 2 standard deviations, chosen among 0, 1, 2, 3 (``scripts/study_align_lk.py``).
+DEFAULT_ZERO_TEST = 2.0
+#: What a window contributes (:class:`ReconstructParams`): Eq. 4's count or the timing-aware charge.
+ACCUMULATE = ("count", "charge")
+#: Windows whose charge :mod:`spikeref.charge` computes in one pass (their margins read once).
+CHARGE_BLOCK = 16
 #: How the output frame is made from the step flows (:class:`ReconstructParams`).
 WARPS = ("progressive", "composed", "chained")
 #: σ of the Gaussian of ``flow_frames="smoothed"``, in Bayer-plane pixels.  Chosen on the
@@ -134,8 +153,10 @@ class ReconstructParams:
     align_params : AlignParams
         Alignment parameters (:mod:`spikeref.align`); with ``prefer_centre > 0`` the search is
         noise-aware, told the noise of the frames before denoising (module doc).  Default:
-        ``AlignParams(prefer_centre=3)`` (:data:`DEFAULT_PREFER_CENTRE`); the paper's HDR+ search
-        is ``AlignParams()``.
+        :func:`default_align_params`, ``AlignParams(prefer_centre=3, refine="lk", smoothness=300,
+        zero_test=2)`` (the noise-aware search, Lucas–Kanade sub-pixel steps, the noise-weighted
+        regularisation of the tile field and the per-pixel zero-motion test; none in the paper); the
+        paper's HDR+ search is ``AlignParams()``.
     warp : {"composed", "progressive"}
         How the output ``I_L`` is made from the flows: ``"progressive"`` — Eq. 14 then Eq. 15
         ``L − 1`` times, each step resampling the previous one (the paper); ``"composed"``
@@ -153,6 +174,12 @@ class ReconstructParams:
     demosaic : {"bilinear", "mhc"}
         The output frame's demosaic: Ψ (default, Eq. 13) or Malvar–He–Cutler
         (:mod:`spikeref.demosaic`; sharper, not in the paper).  The flows always use the 2×2 luma.
+    accumulate : {"count", "charge"}
+        What each window contributes: its spike count (Eq. 4, default) or the charge its pixels
+        integrated, read from the spike times around the window's edges (:mod:`spikeref.charge`,
+        not in the paper: the count's ±1 quantisation at the edges falls by about the firing
+        rate).  ``"charge"`` reads up to :data:`spikeref.charge.DEFAULT_MARGIN` readouts beyond
+        the support.
     """
 
     window: int = 10
@@ -160,10 +187,11 @@ class ReconstructParams:
     L: int = 3
     mode: str = "visible"
     align: bool = True
-    align_params: AlignParams = field(default_factory=lambda: AlignParams(prefer_centre=DEFAULT_PREFER_CENTRE))
+    align_params: AlignParams = field(default_factory=lambda: default_align_params())
     flow_frames: str = "smoothed"
     warp: str = "composed"
     demosaic: str = "bilinear"
+    accumulate: str = "count"
 
     def __post_init__(self):
         from spikeref.denoise.blindspot import MODES
@@ -186,6 +214,8 @@ class ReconstructParams:
 
         if self.demosaic not in DEMOSAICS:
             raise ValueError(f"demosaic must be one of {', '.join(DEMOSAICS)}; got {self.demosaic!r}")
+        if self.accumulate not in ACCUMULATE:
+            raise ValueError(f"accumulate must be one of {', '.join(ACCUMULATE)}; got {self.accumulate!r}")
 
     @property
     def half(self) -> int:
@@ -238,6 +268,17 @@ class ReconstructParams:
         if name not in PRESETS:
             raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
         return {"default": cls, "fast": cls.fast, "paper": cls.paper}[name](**kw)
+
+
+def default_align_params() -> AlignParams:
+    """The default alignment: ``AlignParams(prefer_centre=3, refine="lk", smoothness=300, zero_test=2)``.
+
+    :data:`DEFAULT_PREFER_CENTRE`, :data:`DEFAULT_REFINE`, :data:`DEFAULT_SMOOTHNESS`,
+    :data:`DEFAULT_ZERO_TEST` (none in the paper or HDR+; :meth:`ReconstructParams.paper` uses
+    ``AlignParams()``).
+    """
+    return AlignParams(prefer_centre=DEFAULT_PREFER_CENTRE, refine=DEFAULT_REFINE, smoothness=DEFAULT_SMOOTHNESS,
+                       zero_test=DEFAULT_ZERO_TEST)
 
 
 def exposure_planes(window: int, K: int, level: int) -> float:
@@ -514,7 +555,7 @@ class _State:
         self.stream = rec.stream
         self.keep_flows = keep_flows
         # level l: {k: [I_l(k) planes, D(I_l(k)) planes or None, luma or None, F_{l-1}(k, ·) if kept,
-        #               (raw luma, its local noise) of the noise-aware search or None]}
+        #               (raw luma, its local noise, its noise variance) of the noise-aware search or None]}
         self.levels: list[dict] = [dict() for _ in range(self.p.L + 1)]
         self.step0: dict[int, np.ndarray] = {}  # F_0(k, ·) of warp="chained"
         self.counts: dict[int, np.ndarray] = {}
@@ -525,10 +566,24 @@ class _State:
             from spikeref.accumulate import window_counts
 
             with self.timed("accumulate"):
-                c = window_counts(self.stream, self.p.window, start=k * self.p.window, count=1)[0]
-                self.stream.release(k * self.p.window, self.p.window)
-                self.counts[k] = bayer_planes(c)
+                if self.p.accumulate == "charge":
+                    self._charge_block(k)
+                else:
+                    c = window_counts(self.stream, self.p.window, start=k * self.p.window, count=1)[0]
+                    self.stream.release(k * self.p.window, self.p.window)
+                    self.counts[k] = bayer_planes(c)
         return self.counts[k]
+
+    def _charge_block(self, k: int) -> None:
+        """The charges (:func:`spikeref.charge.window_charge`) of windows ``k … k + CHARGE_BLOCK − 1``
+        (those that fit), float32 Bayer planes; each window's value does not depend on the block."""
+        from spikeref.charge import window_charge
+
+        w = self.p.window
+        count = min(CHARGE_BLOCK, len(self.stream) // w - k)
+        charge = window_charge(self.stream, w, start=k * w, count=count)
+        for i in range(count):
+            self.counts.setdefault(k + i, bayer_planes(charge[i]))
 
     def planes(self, level: int, k: int) -> np.ndarray:
         """``I_l(k)`` ``(4, h, w) float32``."""
@@ -582,37 +637,41 @@ class _State:
             if i:
                 alt = self.luma(level, k + i)
                 with self.timed("align"):
-                    if p.align_params.prefer_centre > 0:
+                    if p.align_params.prefer_centre > 0 or p.align_params.zero_test is not None:
                         out[j] = self.noise_aware_flow(ref, alt, level, k, k + i)
                     else:
                         out[j] = align(ref, alt, step=tile_step, params=p.align_params)
         return out
 
     def noise_aware_flow(self, ref: np.ndarray, alt: np.ndarray, level: int, k: int, j: int) -> np.ndarray:
-        """``align`` with the noise of ``I_l(k)`` and ``I_l(j)`` (``AlignParams.prefer_centre > 0``).
+        """``align`` with the noise of ``I_l(k)`` and ``I_l(j)`` (``prefer_centre > 0`` or a ``zero_test``).
 
         The noise variance (:func:`spikeref.align.local_noise`) and the correlation of the two
         frames' noise (:func:`spikeref.align.estimate_noise_correlation`) are measured on the 2×2
         luma of the frames *before* denoising, whatever the flow is estimated on: a denoised or
         smoothed flow image hides its residual error from a high-pass estimate, and the
-        anti-correlation of adjacent windows' counts is a property of the raw spikes.
+        anti-correlation of adjacent windows' counts is a property of the raw spikes.  The per-pixel
+        zero-motion test (``AlignParams.zero_test``) compares those raw lumas too.
         """
-        from spikeref.align import estimate_noise_correlation
+        from spikeref.align import _noise_correlation
 
-        (r_raw, r_noise), (a_raw, a_noise) = self.raw_noise(level, k), self.raw_noise(level, j)
+        (r_raw, r_noise, r_var), (a_raw, a_noise, a_var) = self.raw_noise(level, k), self.raw_noise(level, j)
+        # = estimate_noise_correlation(r_raw, a_raw), each frame's own estimate made once
+        rho = _noise_correlation(r_raw, a_raw, r_var, a_var)
         return align(ref, alt, step=level, params=self.p.align_params, noise=0.5 * (r_noise + a_noise),
-                     correlation=estimate_noise_correlation(r_raw, a_raw))
+                     correlation=rho, raw=(r_raw, a_raw))
 
-    def raw_noise(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """The 2×2 luma of ``I_l(k)`` before denoising and its local noise map, made once per frame
-        (each frame is aligned against up to ``2h`` others, as reference and as alternate)."""
-        from spikeref.align import local_noise
+    def raw_noise(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray, float]:
+        """The 2×2 luma of ``I_l(k)`` before denoising, its local noise map and its global noise variance
+        (:func:`spikeref.align.estimate_noise`), made once per frame (each frame is aligned against up
+        to ``2h`` others, as reference and as alternate)."""
+        from spikeref.align import estimate_noise, local_noise
 
         self.planes(level, k)
         entry = self.levels[level][k]
         if entry[4] is None:
             raw = luma(entry[0])
-            entry[4] = (raw, local_noise(raw))
+            entry[4] = (raw, local_noise(raw), estimate_noise(raw))
         return entry[4]
 
     def _compute(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray | None]:

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from spikeref.align import (
-    AlignParams, _fit_offset, _nearest_tiles, align, align_tiles, estimate_noise, estimate_noise_correlation,
-    flow_from_tiles, gaussian_pyramid, local_noise, luma,
+    AlignParams, _fit_offset, _nearest_tiles, _regularise, align, align_tiles, estimate_noise,
+    estimate_noise_correlation, flow_from_tiles, gaussian_pyramid, local_noise, luma, zero_motion_test,
 )
 from spikeref.oracles.align import (
     align_oracle, align_tiles_oracle, estimate_noise_correlation_oracle, estimate_noise_oracle, flow_from_tiles_oracle,
@@ -258,6 +258,8 @@ def test_params_defaults_and_validation():
     p = AlignParams()
     assert (p.levels, p.tile_by_step, p.coarse_tile, p.search_radius, p.subpixel) == (4, (32, 16, 8), 8,
                                                                                       (1, 4, 4, 4), True)
+    assert (p.refine, p.smoothness, p.zero_test) == ("quadratic", 0.0, None)  # HDR+ unless asked otherwise
+    assert AlignParams(zero_test=2).zero_test == 2.0
     assert [p.tile_for_step(s) for s in range(5)] == [32, 16, 8, 8, 8]
     assert p.min_size() == 64 and SMALL.min_size(0) == 8 and AlignParams(levels=1, search_radius=(1,)).min_size() == 32
     assert AlignParams(tile_by_step=[4], search_radius=[0, 1, 2, 3]).tile_by_step == (4,)
@@ -275,6 +277,16 @@ def test_params_defaults_and_validation():
         (dict(search_radius=(1, -1, 4, 4)), "search_radius"),
         (dict(search_radius=(1, 4.0, 4, 4)), "search_radius"),
         (dict(subpixel=1), "subpixel"),
+        (dict(refine="cubic"), "refine"),
+        (dict(refine=None), "refine"),
+        (dict(refine="lk", smoothness=-1.0), "smoothness"),
+        (dict(refine="lk", smoothness=float("nan")), "smoothness"),
+        (dict(refine="lk", smoothness=True), "smoothness"),
+        (dict(smoothness=10.0), "smoothness regularises the Lucas–Kanade refinement"),
+        (dict(zero_test=-1.0), "zero_test"),
+        (dict(zero_test=float("inf")), "zero_test"),
+        (dict(zero_test=True), "zero_test"),
+        (dict(zero_test="2"), "zero_test"),
     ]
     for kwargs, name in bad:
         with pytest.raises(ValueError, match=name):
@@ -618,3 +630,116 @@ def test_noise_aware_pipeline_on_the_real_near_static_recording():
         (frame,) = Reconstructor(stream, params, lambda p: p).frames(3, 4, keep_steps=True)
         share[z] = np.mean(np.concatenate([np.hypot(*f).ravel() for f in frame.flows.values()]) > 1.0)
     assert share[0.0] > 0.1 and share[3.0] < 0.06
+
+
+# ----------------------------------------------------------------------------- Lucas–Kanade refinement (an option)
+LK = AlignParams(refine="lk")
+
+
+@pytest.mark.parametrize("shift", [(0.3, -0.6), (-0.5, 0.25), (1.7, 0.2)])
+def test_lucas_kanade_refinement_recovers_a_subpixel_shift(shift):
+    ref = texture((96, 96), sigma=2.5, seed=3)
+    alt = fourier_shift(ref, shift)
+    inner = np.s_[16:-16, 16:-16]
+    quadratic = align(ref, alt)
+    for params in (LK, AlignParams(refine="lk", smoothness=300.0)):
+        flow = align(ref, alt, params=params)
+        err = np.abs(flow - np.asarray(shift, np.float32)[:, None, None])
+        assert np.max(err[(slice(None), *inner)]) < 0.05
+        assert np.max(err) < 0.1  # border tiles too: samples moved outside the image are left out
+    assert np.abs(quadratic - np.asarray(shift, np.float32)[:, None, None])[(slice(None), *inner)].mean() > 0.005
+
+
+def test_lucas_kanade_keeps_flat_and_identical_input_at_zero():
+    zero = np.zeros((2, 64, 80), np.float32)
+    ref = texture((64, 80), seed=4)
+    for params in (LK, AlignParams(refine="lk", smoothness=100.0, prefer_centre=3.0)):
+        for step in (0, 2):
+            np.testing.assert_array_equal(align(ref, ref.copy(), step=step, params=params), zero)
+        a = np.full((64, 80), 0.4, np.float32)
+        np.testing.assert_array_equal(align(a, np.full((64, 80), 0.9), params=params), zero)
+
+
+def test_regularisation_pulls_unsure_tiles_to_their_neighbours():
+    """A tile without information takes its neighbours' vector; a sure one keeps its own; λ = 0 changes nothing."""
+    vec = np.tile(np.array([0.5, -0.25]), (5, 6, 1))
+    vec[2, 3] = (3.0, 3.0)
+    info = np.zeros((5, 6, 3))
+    info[..., 0] = info[..., 2] = 1e3
+    info[2, 3] = 0.0  # nothing to go by: an outlier from noise
+    var = np.ones((5, 6))
+    out = _regularise(vec, info, var, 10.0)
+    np.testing.assert_allclose(out[2, 3], (0.5, -0.25), atol=0.02)
+    others = np.delete(out.reshape(-1, 2), 2 * 6 + 3, axis=0)
+    np.testing.assert_allclose(others, np.broadcast_to([0.5, -0.25], others.shape), atol=0.02)
+    sure = info.copy()
+    sure[2, 3] = (1e9, 0.0, 1e9)
+    np.testing.assert_allclose(_regularise(vec, sure, var, 10.0)[2, 3], (3.0, 3.0), atol=1e-3)
+    assert _regularise(vec, info, var, 0.0) is vec
+    np.testing.assert_allclose(_regularise(np.tile(vec[:1, :1], (5, 6, 1)), info, var, 10.0),
+                               np.tile(vec[:1, :1], (5, 6, 1)))  # a uniform field stays as it is
+
+
+def test_regularisation_quiets_noise_on_a_static_scene():
+    """Two noisy frames of a still, weakly textured scene: the noise-weighted pull shrinks the spurious motion."""
+    rng = np.random.default_rng(12)
+    base = 0.5 + 0.05 * texture((96, 96), sigma=3.0, seed=8)
+    ref = ndimage.gaussian_filter(base + 0.05 * rng.standard_normal(base.shape), 1.0).astype(np.float32)
+    alt = ndimage.gaussian_filter(base + 0.05 * rng.standard_normal(base.shape), 1.0).astype(np.float32)
+    noise = np.full(base.shape, 0.05 ** 2)
+    plain = align(ref, alt, step=2, params=AlignParams(refine="lk", prefer_centre=3.0), noise=noise)
+    smooth = align(ref, alt, step=2, params=AlignParams(refine="lk", smoothness=300.0, prefer_centre=3.0), noise=noise)
+    assert 0.05 < np.hypot(*plain).mean() < 2.0
+    assert np.hypot(*smooth).mean() < 0.5 * np.hypot(*plain).mean()
+
+
+def test_lucas_kanade_params_fit_small_frames():
+    p = AlignParams(refine="lk", smoothness=100.0)
+    small = p.fitted(20, 13)
+    assert (small.refine, small.smoothness) == ("lk", 100.0)
+    assert p.fitted(2, 5) is None and AlignParams(refine="lk").fitted(2, 5) is not None
+    np.testing.assert_array_equal(align(np.zeros((8, 8)), np.ones((8, 8)), params=p.fitted(8, 8)), 0.0)
+
+
+# ----------------------------------------------------------------------------- per-pixel zero-motion test (an option)
+def _noisy_pair(shift, sigma=0.02, seed=21):
+    rng = np.random.default_rng(seed)
+    ref = texture((64, 80), sigma=2.0, seed=9)
+    alt = fourier_shift(ref, shift)
+    return (ref + sigma * rng.standard_normal(ref.shape)).astype(np.float32), \
+        (alt + sigma * rng.standard_normal(ref.shape)).astype(np.float32)
+
+
+def test_zero_motion_test_drops_motion_that_zero_explains_better():
+    ref, alt = _noisy_pair((0.0, 0.0))
+    spurious = np.full((2, 64, 80), 0.7, np.float32)  # e.g. a moving tile's vector spread onto a still background
+    out = zero_motion_test(spurious, ref, alt, 2.0, noise=0.02 ** 2, correlation=0.0)
+    assert np.mean(out[0] == 0) > 0.95 and out.dtype == np.float32
+    assert set(np.unique(out)) <= {0.0, np.float32(0.7)}
+
+
+def test_zero_motion_test_keeps_true_motion_and_what_it_cannot_tell():
+    ref, alt = _noisy_pair((1.0, -0.5))
+    true = np.stack([np.full((64, 80), 1.0), np.full((64, 80), -0.5)]).astype(np.float32)
+    kept = zero_motion_test(true, ref, alt, 2.0, noise=0.02 ** 2, correlation=0.0)
+    np.testing.assert_array_equal(kept[:, 8:-8, 8:-8], true[:, 8:-8, 8:-8])  # (the periodic shift wraps at the border)
+    flat = np.full((64, 80), 0.5, np.float32)
+    np.testing.assert_array_equal(zero_motion_test(true, flat, flat, 2.0, noise=0.02 ** 2, correlation=0.0), true)
+    # in align(): identical frames keep their exact zero flow; a shifted pair keeps its motion
+    p = AlignParams(refine="lk", smoothness=300.0, prefer_centre=3.0, zero_test=2.0)
+    np.testing.assert_array_equal(align(ref, ref.copy(), params=p, noise=0.02 ** 2), 0.0)
+    flow = align(ref, alt, params=p, noise=0.02 ** 2, raw=(ref, alt))
+    assert np.abs(flow[0, 16:-16, 16:-16] - 1.0).max() < 0.1
+
+
+def test_zero_motion_test_checks_its_arguments():
+    ref, alt = _noisy_pair((0.0, 0.0))
+    flow = np.zeros((2, 64, 80), np.float32)
+    with pytest.raises(ValueError, match="flow must be a finite"):
+        zero_motion_test(flow[:, :10], ref, alt, 2.0)
+    with pytest.raises(ValueError, match="z must be"):
+        zero_motion_test(flow, ref, alt, -1.0)
+    with pytest.raises(ValueError, match="box must be"):
+        zero_motion_test(flow, ref, alt, 2.0, box=4)
+    with pytest.raises(ValueError, match="same shape"):
+        zero_motion_test(flow, ref, alt[:10], 2.0)
