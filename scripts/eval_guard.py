@@ -61,7 +61,7 @@ def scene_cases(which: str, windows, keys=(), short: int | None = None, accumula
     of Eq. 4's.
     """
     from spikeref.charge import charge_rates
-    from spikeref.accumulate import accumulate
+    from spikeref.accumulate import accumulate as eq4
     from spikeref.bayer import bayer_planes
     from spikeref.bench.runner import bench_scenes, load_bench_scene
     from spikeref.simulate.simulator import ground_truth
@@ -79,11 +79,11 @@ def scene_cases(which: str, windows, keys=(), short: int | None = None, accumula
                 if accumulate == "charge":
                     planes = bayer_planes(charge_rates(sc.stream, w, start=start, count=1)[0])
                 else:
-                    planes = bayer_planes(accumulate(sc.stream, w, start=start, count=1)[0])
+                    planes = bayer_planes(eq4(sc.stream, w, start=start, count=1)[0])
                 truth = ground_truth(sc.scene, w, planes=start + w, start=start)[0]
                 case = (sc.key, w, planes, truth, sc.stream.cfa)
                 if short is not None:
-                    case += (bayer_planes(accumulate(sc.stream, short, start=start, count=1)[0]),)
+                    case += (bayer_planes(eq4(sc.stream, short, start=start, count=1)[0]),)
                 yield case
         sc.stream = None
 

@@ -343,7 +343,7 @@ def cmd_denoise(args) -> int:
     if args.frames is not None:
         total = min(total, args.frames)
     den = _load_denoiser(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink, guard=args.guard)
-    frames = den.frames(stream, args.window, start=args.start, count=args.frames)
+    frames = den.frames(stream, args.window, start=args.start, count=args.frames, accumulate=args.accumulate)
     first = next(frames, None)  # the generator's own checks (and the first frame) before any output is opened
     with _output_phase():
         with FrameSink(args.output, args.exr_dir, fps=args.fps, half=args.half) as sink, \
@@ -427,7 +427,7 @@ def cmd_reconstruct(args) -> int:
     preset = "paper" if args.paper else (args.preset or "default")
     args.paper = preset == "paper"
     chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp),
-                                ("demosaic", args.demosaic)) if v is not None}
+                                ("demosaic", args.demosaic), ("accumulate", args.accumulate)) if v is not None}
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,
                                       align=not args.no_align, **chosen)
     _check_float(args.fps, "--fps")
@@ -925,6 +925,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "spikeref.denoise.guard; for W > 10 the noise is measured on the window's first 10 "
                         "planes, so texture is not read as noise); off: the network's output, then the shrinkage "
                         "below")
+    p.add_argument("--accumulate", choices=["count", "charge"], default="count",
+                   help="what each window gives: count (default; Eq. 4, its spikes / W) or charge (the charge its "
+                        "pixels integrated, read from the spike times up to 200 readouts around the window's edges; "
+                        "not in the paper; spikeref.charge). Weights trained on charge: --weights b2u_w16_charge")
     p.add_argument("--no-shrink", action="store_true",
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
@@ -988,6 +992,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--demosaic", choices=["bilinear", "mhc"], default=None,
                    help="the output frame's demosaic: bilinear (default; the paper's Ψ, Eq. 13) or mhc "
                         "(Malvar-He-Cutler 5x5 filters: sharper on photographs, not in the paper; docs/results.md)")
+    p.add_argument("--accumulate", choices=["count", "charge"], default=None,
+                   help="what each window contributes: count (default; Eq. 4, its spikes) or charge (the charge its "
+                        "pixels integrated, read from the spike times up to 200 readouts around the window's edges; "
+                        "the count's ±1 quantisation at the edges falls by about the firing rate; not in the paper; "
+                        "spikeref.charge, docs/results.md)")
     p.add_argument("--weights", type=Path, default=None,
                    help="denoiser weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little "
                         "sharper)")
