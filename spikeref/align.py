@@ -118,8 +118,10 @@ samples whose moved position lies outside the image are left out.  Identical ima
 
 ``smoothness = λ > 0`` then regularises the tile field by each tile's confidence: with
 ``J_i = G_i / v_i`` (``v_i`` the tile's mean noise variance, the ``noise`` map as for the noise-aware
-search), the vectors minimise ``Σ_i (u_i − û_i)ᵀ J_i (u_i − û_i) + λ Σ_{i~j} |u_i − u_j|²`` over the
-4-neighbours, by :data:`SMOOTHNESS_SWEEPS` Jacobi sweeps from the Lucas–Kanade vectors ``û``: a tile
+search), the vectors move towards the minimiser of ``Σ_i (u_i − û_i)ᵀ J_i (u_i − û_i) + λ Σ_{i~j} |u_i − u_j|²``
+over the 4-neighbours by :data:`SMOOTHNESS_SWEEPS` Jacobi sweeps from the Lucas–Kanade vectors ``û``
+(the sweeps are the definition: where ``J`` is small next to ``λ`` they stop short of the minimiser,
+by up to 0.5 px on the golden case ``align_lk_regularised``, a milder pull than the minimiser's): a tile
 whose texture pins its motion keeps it, one whose estimate is mostly noise (flat, dark) takes its
 neighbours'.  ``λ`` is in units of one pixel's information (a pixel whose gradient equals the noise
 standard deviation).
@@ -686,9 +688,10 @@ def _regularise(vectors: np.ndarray, info: np.ndarray, variance: np.ndarray, lam
                 sweeps: int = SMOOTHNESS_SWEEPS) -> np.ndarray:
     """Tile vectors pulled towards their 4-neighbours by their confidence (``refine="lk"``, ``smoothness``).
 
-    Minimises ``Σ_i (u_i − û_i)ᵀ J_i (u_i − û_i) + λ Σ_{i~j} |u_i − u_j|²`` with ``J_i`` the tile's
-    Lucas–Kanade information over its mean noise variance, by :data:`SMOOTHNESS_SWEEPS` Jacobi sweeps
-    from ``û`` (each tile: ``u_i = (J_i + λ n_i I)⁻¹ (J_i û_i + λ Σ_j u_j)``, ``n_i`` its neighbours).
+    :data:`SMOOTHNESS_SWEEPS` Jacobi sweeps from ``û`` towards the minimiser of
+    ``Σ_i (u_i − û_i)ᵀ J_i (u_i − û_i) + λ Σ_{i~j} |u_i − u_j|²`` (not run to convergence: the sweeps
+    are the definition), ``J_i`` the tile's Lucas–Kanade information over its mean noise variance
+    (each tile: ``u_i = (J_i + λ n_i I)⁻¹ (J_i û_i + λ Σ_j u_j)``, ``n_i`` its neighbours).
     """
     ny, nx = vectors.shape[:2]
     if ny * nx == 1 or lam <= 0:

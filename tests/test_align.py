@@ -9,13 +9,13 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from spikeref.align import (
-    AlignParams, _fit_offset, _nearest_tiles, _regularise, align, align_tiles, estimate_noise,
-    estimate_noise_correlation, flow_from_tiles, gaussian_pyramid, local_noise, luma, zero_motion_test,
+    AlignParams, _fit_offset, _gradient, _lucas_kanade, _nearest_tiles, _regularise, align, align_tiles,
+    estimate_noise, estimate_noise_correlation, flow_from_tiles, gaussian_pyramid, local_noise, luma, zero_motion_test,
 )
 from spikeref.oracles.align import (
     align_oracle, align_tiles_oracle, estimate_noise_correlation_oracle, estimate_noise_oracle, flow_from_tiles_oracle,
-    gaussian_pyramid_oracle, level_noise_factors_oracle, local_noise_oracle, nearest_tiles_oracle,
-    quadratic_offset_oracle,
+    gaussian_pyramid_oracle, gradient_oracle, level_noise_factors_oracle, local_noise_oracle, lucas_kanade_oracle,
+    nearest_tiles_oracle, quadratic_offset_oracle, regularise_oracle, zero_motion_sums_oracle, zero_motion_test_oracle,
 )
 from spikeref.warp import warp_bilinear
 
@@ -743,3 +743,221 @@ def test_zero_motion_test_checks_its_arguments():
         zero_motion_test(flow, ref, alt, 2.0, box=4)
     with pytest.raises(ValueError, match="same shape"):
         zero_motion_test(flow, ref, alt[:10], 2.0)
+
+
+# ----------------------------------------------------------------------------- the options' oracles
+# refine="lk", smoothness and zero_test against their literal transcriptions (spikeref/oracles/align.py,
+# docs/spec/align.md#lucas-kanade-refinement, #regularised-tile-field, #per-pixel-zero-motion-test)
+LK_SMALL = AlignParams(levels=2, tile_by_step=(16, 8), coarse_tile=8, search_radius=(1, 2), refine="lk")
+LK_ALL = AlignParams(levels=2, tile_by_step=(16, 8), coarse_tile=8, search_radius=(1, 2), refine="lk",
+                     smoothness=300.0, prefer_centre=3.0, zero_test=2.0)
+
+
+def lk_pair(kind, shape=(32, 40), sigma=0.02, seed=0):
+    """``(reference, alternate)`` float32 with noise of std ``sigma`` correlated −½ at the same pixel: ``still``;
+    ``moving`` (the texture moved by (0.6, −0.35)); ``object`` (a still background, flat on its left quarter,
+    and a textured block moved by (1.25, −0.75)); ``half flat`` (no noise: the left half exactly constant,
+    where the Lucas–Kanade system is singular; the right half moved by (0.4, 0.3))."""
+    h, w = shape
+    back = 0.4 + 0.5 * texture(shape, sigma=2.0, seed=seed + 1)
+    if kind == "still":
+        ref, alt = back, back
+    elif kind == "moving":
+        ref, alt = back, fourier_shift(back, (0.6, -0.35))
+    elif kind == "object":
+        back = back.copy()
+        back[:, : w // 4] = 0.4
+        obj = 0.45 + 0.6 * texture(shape, sigma=1.5, seed=seed + 2)
+        block = np.zeros(shape, bool)
+        block[h // 4: 3 * h // 4, w // 2: w - 4] = True
+        moved_block = ndimage.shift(block.astype(np.float64), (1.25, -0.75), order=0) > 0.5
+        ref = np.where(block, obj, back)
+        alt = np.where(moved_block, fourier_shift(obj, (1.25, -0.75)), back)
+    else:  # half flat, no noise
+        ref = back.copy()
+        ref[:, : w // 2] = 0.4
+        alt = fourier_shift(back, (0.4, 0.3))
+        alt[:, : w // 2] = 0.4
+        return ref.astype(np.float32), alt.astype(np.float32)
+    return anticorrelated_pair(shape, sigma, seed + 100, scene=ref)[0], anticorrelated_pair(shape, sigma, seed + 100,
+                                                                                           scene=alt)[1]
+
+
+LK_CASES = [
+    ("still, noise estimated", "still", {}),
+    ("still, noise and ρ given", "still", {"noise": 4e-4, "correlation": -0.5}),
+    ("moving, noise estimated", "moving", {}),
+    ("moving, a noise map and ρ = −0.8 (clipped) given", "moving", {"noise": "map", "correlation": -0.8}),
+    ("object on a still background, noise given, raw frames apart", "object",
+     {"noise": 4e-4, "correlation": -0.5, "raw": True}),
+    ("object on a still background, noise estimated, raw frames apart", "object", {"raw": True}),
+    ("half flat, no noise: singular tiles, the variance floor", "half flat", {"noise": 0.0, "correlation": 0.0}),
+]
+
+
+def _lk_inputs(kind, kw, shape=(32, 40)):
+    ref, alt = lk_pair(kind, shape)
+    given = dict(kw)
+    if given.get("noise") == "map":
+        given["noise"] = np.random.default_rng(3).uniform(1e-4, 8e-4, shape)
+    if given.pop("raw", False):  # the flow on smoothed frames, the zero test on the raw ones (as the pipeline)
+        given["raw"] = (ref, alt)
+        ref = ndimage.gaussian_filter(ref.astype(np.float64), 1.0).astype(np.float32)
+        alt = ndimage.gaussian_filter(alt.astype(np.float64), 1.0).astype(np.float32)
+    return ref, alt, given
+
+
+@pytest.mark.parametrize("name, kind, kw", LK_CASES, ids=[c[0] for c in LK_CASES])
+def test_lk_regularised_zero_test_match_the_oracle(name, kind, kw):
+    ref, alt, given = _lk_inputs(kind, kw)
+    tiles_kw = {k: v for k, v in given.items() if k != "raw"}
+    for step in (0, 1):
+        for params in (LK_SMALL, LK_ALL):
+            vectors, tile = align_tiles(ref, alt, step, params, **tiles_kw)
+            expected, tile_o = align_tiles_oracle(ref, alt, step, params, **tiles_kw)
+            assert tile == tile_o
+            np.testing.assert_allclose(vectors, expected, rtol=1e-5, atol=1e-6, err_msg=f"{name}, step {step}")
+        flow = align(ref, alt, step, LK_ALL, **given)
+        expected = align_oracle(ref, alt, step, LK_ALL, **given)
+        np.testing.assert_array_equal(flow == 0, expected == 0, err_msg=f"{name}, step {step}: the zero test")
+        np.testing.assert_allclose(flow, expected, rtol=1e-5, atol=1e-6, err_msg=f"{name}, step {step}")
+
+
+def test_lk_oracle_cases_exercise_the_options():
+    """On the pairs above the options change the result: regularisation moves vectors, the zero test fires on
+    the object's still background, samples are left out at the border, and the half-flat pair has singular
+    tiles that keep their integer vector."""
+    ref, alt, given = _lk_inputs("object", {"noise": 4e-4, "correlation": -0.5, "raw": True})
+    raw = given.pop("raw")
+    plain = align_oracle(ref, alt, 1, AlignParams(**{**LK_ALL.__dict__, "zero_test": None}), **given)
+    tested = align_oracle(ref, alt, 1, LK_ALL, raw=raw, **given)
+    fired = np.any(plain != tested, axis=0)
+    assert 20 < fired.sum() and np.all(tested[:, fired] == 0)
+    lk = align_tiles_oracle(ref, alt, 1, AlignParams(**{**LK_ALL.__dict__, "smoothness": 0.0}), **given)[0]
+    smooth = align_tiles_oracle(ref, alt, 1, LK_ALL, **given)[0]
+    assert np.abs(lk - smooth).max() > 0.1
+    ref, alt = lk_pair("half flat")
+    best = np.zeros((7, 9, 2), np.int64)
+    _, info = lucas_kanade_oracle(ref, alt, 0, 0, 8, best[0, 0])
+    assert np.all(info == 0)  # flat: no information, the steps stop at once
+    u, _ = lucas_kanade_oracle(ref, alt, 0, 32, 8, (1, 1))  # the tile's right column moved past the border
+    assert np.all(np.isfinite(u)) and np.any(u != (1, 1))
+
+
+def test_lk_kernels_match_the_oracle_in_float64():
+    """The Lucas–Kanade and Jacobi kernels before the float32 rounding: agreement to ~1e-14."""
+    ref, alt = lk_pair("moving", (32, 40))
+    gy, gx = np.empty(alt.shape), np.empty(alt.shape)
+    _gradient(alt, gy, gx)
+    o_gy, o_gx = gradient_oracle(alt)
+    np.testing.assert_array_equal(gy, o_gy)
+    np.testing.assert_array_equal(gx, o_gx)
+    np.testing.assert_array_equal(gy, np.gradient(alt.astype(np.float64))[0])  # as numpy.gradient
+    tile = 8
+    best = np.random.default_rng(1).integers(-2, 3, (7, 9, 2)).astype(np.int64)
+    out, info = np.empty((7, 9, 2)), np.empty((7, 9, 3))
+    _lucas_kanade(ref, alt, gy, gx, tile, best, 2, out, info)
+    for i in range(7):
+        for j in range(9):
+            u, inf = lucas_kanade_oracle(ref, alt, 4 * i, 4 * j, tile, best[i, j], gradient=(o_gy, o_gx))
+            np.testing.assert_allclose(out[i, j], u, rtol=0, atol=1e-10)
+            np.testing.assert_allclose(info[i, j], inf, rtol=1e-12, atol=0)
+    variance = np.random.default_rng(2).uniform(1e-4, 1e-3, (7, 9))
+    variance[0, 0] = 0.0  # floored at 1e-20
+    for lam in (1.0, 300.0, 1e5):
+        np.testing.assert_allclose(_regularise(out, info, variance, lam), regularise_oracle(out, info, variance, lam),
+                                   rtol=0, atol=1e-10)
+
+
+def test_regularise_oracle_sweeps_towards_the_minimiser_of_its_energy():
+    """The Jacobi update is the energy's stationarity for fixed neighbours: many sweeps reach the exact minimiser
+    (``sweeps=None``), which no small perturbation improves; 30 sweeps (the option) stop short where λ ≫ J."""
+    rng = np.random.default_rng(4)
+    hat = rng.normal(0.0, 1.0, (4, 5, 2))
+    info = np.stack([rng.uniform(0, 50, (4, 5)), rng.uniform(-5, 5, (4, 5)), rng.uniform(0, 50, (4, 5))], -1)
+    info[..., 1] = np.clip(info[..., 1], -0.9 * np.sqrt(info[..., 0] * info[..., 2]),
+                           0.9 * np.sqrt(info[..., 0] * info[..., 2]))
+    variance = np.full((4, 5), 0.5)
+    lam = 10.0
+
+    def energy(u):
+        e = 0.0
+        for i in range(4):
+            for j in range(5):
+                jm = np.array([[info[i, j, 0], info[i, j, 1]], [info[i, j, 1], info[i, j, 2]]]) / variance[i, j]
+                d = u[i, j] - hat[i, j]
+                e += d @ jm @ d
+                e += lam * sum(np.sum((u[i, j] - u[a, b]) ** 2) for a, b in ((i + 1, j), (i, j + 1)) if a < 4 and b < 5)
+        return e
+
+    exact = regularise_oracle(hat, info, variance, lam, sweeps=None)
+    np.testing.assert_allclose(regularise_oracle(hat, info, variance, lam, sweeps=3000), exact, atol=1e-9)
+    e0 = energy(exact)
+    for _ in range(5):
+        assert energy(exact + 1e-3 * rng.standard_normal(exact.shape)) > e0
+    far = regularise_oracle(hat, info / 1e4, variance, lam)  # J ≪ λ: 30 sweeps are not the minimiser
+    assert np.abs(far - regularise_oracle(hat, info / 1e4, variance, lam, sweeps=None)).max() > 0.05
+    np.testing.assert_array_equal(regularise_oracle(hat[:1, :1], info[:1, :1], variance[:1, :1], lam), hat[:1, :1])
+
+
+def test_lucas_kanade_oracle_converges_on_a_bilinear_image():
+    """Bilinear samples and central differences are exact on ``f = a + by + cx + dxy``: Gauss–Newton steps
+    converge to the shift (the first step is off only by the cross term ``d·u_y·u_x``)."""
+    y, x = np.mgrid[0:24, 0:24].astype(np.float64)
+
+    def f(yy, xx):
+        return 0.5 + 0.02 * yy - 0.03 * xx + 0.004 * yy * xx
+
+    shift = np.array([0.3, -0.45])
+    alt, ref = f(y, x), f(y + shift[0], x + shift[1])  # ref(p) = alt(p + shift)
+    one, _ = lucas_kanade_oracle(ref, alt, 8, 8, 8, (0, 0), iterations=1)
+    assert np.abs(one - shift).max() < 0.05
+    many, info = lucas_kanade_oracle(ref, alt, 8, 8, 8, (0, 0), iterations=8)
+    np.testing.assert_allclose(many, shift, atol=1e-9)
+    assert info[0] > 0 and info[2] > 0
+
+
+@pytest.mark.parametrize("rho", [-0.5, 0.0, 0.3])
+def test_zero_motion_noise_moments_by_monte_carlo(rho):
+    """Noise only (a flat scene): the oracle's d has mean 0 and variance q (bilinear weights and ρ included)."""
+    rng = np.random.default_rng(int(10 * rho) + 7)
+    shape = (8, 8)
+    flow = np.stack([np.full(shape, 0.3), np.full(shape, -0.6)]).astype(np.float32)
+    flow[:, :, -1] = np.array([[0.0], [0.4]], np.float32)  # the last column: sampled on its own row
+    d_all, q_all = [], []
+    for _ in range(300):
+        a = rng.standard_normal(shape)
+        b = rho * a + np.sqrt(1 - rho ** 2) * rng.standard_normal(shape)
+        d, q = zero_motion_sums_oracle(flow, a, b, np.ones(shape), rho, box=1)
+        d_all.append(d)
+        q_all.append(q)
+    d_all, q = np.array(d_all), q_all[0]
+    assert abs(d_all.mean()) < 5 * np.sqrt(q.mean() / d_all.size) * 3  # (neighbours share taps: ×3 for that)
+    np.testing.assert_allclose(d_all.var(axis=0).mean(), q.mean(), rtol=0.1)
+    np.testing.assert_allclose(d_all[:, :, -1].var(), q[:, -1].mean(), rtol=0.15)
+
+
+@pytest.mark.parametrize("kw", [{"noise": 4e-4, "correlation": -0.5}, {}, {"noise": "map", "correlation": 0.4},
+                                {"noise": 4e-4, "correlation": -0.9, "box": 5}, {"noise": 0.0, "correlation": 0.0}])
+def test_zero_motion_test_matches_the_oracle(kw):
+    ref, alt = lk_pair("object")
+    rng = np.random.default_rng(5)
+    flow = np.stack([ndimage.gaussian_filter(rng.normal(0, 1.5, ref.shape), 3) for _ in range(2)]).astype(np.float32)
+    flow[:, :, : 10] += np.array([1.25, -0.75], np.float32)[:, None, None]
+    given = dict(kw)
+    if given.get("noise") == "map":
+        given["noise"] = rng.uniform(1e-4, 8e-4, ref.shape)
+    got = zero_motion_test(flow, ref, alt, 2.0, **given)
+    expected = zero_motion_test_oracle(flow, ref, alt, 2.0, **given)
+    np.testing.assert_array_equal(got, expected)
+    assert 0 < np.sum(got[0] == 0) < got[0].size
+
+
+def test_the_oracle_constants_are_the_kernel_s():
+    import importlib
+
+    from spikeref.oracles import align as o_align
+
+    kernel = importlib.import_module("spikeref.align")
+    assert (o_align.LK_ITERATIONS, o_align.SMOOTHNESS_SWEEPS, o_align.ZERO_TEST_BOX) == (
+        kernel.LK_ITERATIONS, kernel.SMOOTHNESS_SWEEPS, kernel.ZERO_TEST_BOX)

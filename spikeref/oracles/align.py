@@ -14,6 +14,18 @@ its 225 clamped offsets, the pyramid's composite kernels by written-out convolut
 pixels, and the search's two override rules (zero motion first, then the search centre) as
 written in ``docs/spec/align.md#noise-aware-search``.  Only the constants ``PD_TOLERANCE`` and
 ``SLACK`` of the sub-pixel fit, and the parameter class, come from :mod:`spikeref.align`.
+
+The three options of issue 32 (not in the paper or HDR+; ``docs/spec/align.md#lucas-kanade-refinement``,
+``#regularised-tile-field`` and ``#per-pixel-zero-motion-test``) are transcribed the same way:
+``AlignParams(refine="lk")`` by :func:`lucas_kanade_oracle` (the gradient by :func:`gradient_oracle`
+pixel by pixel, every sample by :func:`bilinear_oracle` as a sum over its four weighted taps, the
+2 × 2 Gauss–Newton system solved by ``numpy.linalg.solve``); ``smoothness`` by
+:func:`regularise_oracle` (each Jacobi update solved as a 2 × 2 system; ``sweeps=None`` gives the
+exact minimiser of the stated energy instead, from the whole ``2N × 2N`` system); ``zero_test`` by
+:func:`zero_motion_test_oracle` (the warped sample interpolated along ``x`` then ``y`` as the specification
+writes it, the noise moments of each pixel from the four taps' weights, the box as a sum over its clamped
+offsets).  Their constants (:data:`LK_ITERATIONS`,
+:data:`SMOOTHNESS_SWEEPS`, :data:`ZERO_TEST_BOX`, :data:`MIN_VARIANCE`) are written out here.
 """
 
 from __future__ import annotations
@@ -34,6 +46,17 @@ __all__ = [
     "estimate_noise_correlation_oracle",
     "level_noise_factors_oracle",
     "noise_aware_search_oracle",
+    "LK_ITERATIONS",
+    "SMOOTHNESS_SWEEPS",
+    "ZERO_TEST_BOX",
+    "MIN_VARIANCE",
+    "gradient_oracle",
+    "bilinear_oracle",
+    "lucas_kanade_oracle",
+    "tile_noise_oracle",
+    "regularise_oracle",
+    "zero_motion_sums_oracle",
+    "zero_motion_test_oracle",
 ]
 
 _TAPS = (1.0, 4.0, 6.0, 4.0, 1.0)
@@ -145,6 +168,11 @@ def align_tiles_oracle(reference, alternate, step=0, params=None, noise=None, co
     (a number or an ``(h, w)`` map; default ``½ (local_noise(ref) + local_noise(alt))``) and
     ``correlation`` the correlation ``ρ`` of the two images' noise at the same pixel (default
     :func:`estimate_noise_correlation_oracle`), clipped below at −½.  Both are ignored when ``z = 0``.
+
+    With ``params.subpixel`` and ``params.refine = "lk"`` the sub-pixel step is :func:`lucas_kanade_oracle`
+    from each tile's integer vector instead of the quadratic fit; with ``params.smoothness = λ > 0`` the
+    refined field is then :func:`regularise_oracle` with each tile's information over its mean noise
+    variance (:func:`tile_noise_oracle` of the same ``noise``: given, or estimated from the two images).
     """
     params = _default_params() if params is None else params
     tile = params.tile_by_step[min(step, len(params.tile_by_step) - 1)]
@@ -189,6 +217,8 @@ def align_tiles_oracle(reference, alternate, step=0, params=None, noise=None, co
         coarse = (vectors, ref.shape)
     ref, alt = ref_pyr[0], alt_pyr[0]
     ty, tx = len(_centres(ref.shape[0], tile)), len(_centres(ref.shape[1], tile))
+    if params.subpixel and params.refine == "lk":
+        return _refine_lk_oracle(ref, alt, tile, vectors, (ty, tx), params.smoothness, noise), tile
     out = np.zeros((ty, tx, 2), np.float32)
     for (i, j), (vy, vx) in vectors.items():
         out[i, j] = (vy, vx)
@@ -383,7 +413,270 @@ def flow_from_tiles_oracle(vectors, tile, shape):
     return out.astype(np.float32)
 
 
-def align_oracle(reference, alternate, step=0, params=None, noise=None, correlation=None):
-    """``flow_from_tiles_oracle(*align_tiles_oracle(...), shape)``."""
+def align_oracle(reference, alternate, step=0, params=None, noise=None, correlation=None, raw=None):
+    """``flow_from_tiles_oracle(*align_tiles_oracle(...), shape)``, then the zero-motion test if ``params.zero_test``.
+
+    The test (:func:`zero_motion_test_oracle` with ``z = params.zero_test``) compares the frames ``raw``
+    (default ``(reference, alternate)``), with the same ``noise`` and ``correlation`` (when not given:
+    estimated from the ``raw`` frames).
+    """
+    params = _default_params() if params is None else params
     vectors, tile = align_tiles_oracle(reference, alternate, step, params, noise, correlation)
-    return flow_from_tiles_oracle(vectors, tile, np.shape(reference))
+    flow = flow_from_tiles_oracle(vectors, tile, np.shape(reference))
+    if params.zero_test is not None:
+        r_raw, a_raw = (reference, alternate) if raw is None else raw
+        flow = zero_motion_test_oracle(flow, r_raw, a_raw, params.zero_test, noise, correlation)
+    return flow
+
+
+# ----------------------------------------------------------------------------- Lucas–Kanade refinement
+#: Gauss–Newton steps per tile of ``refine="lk"``.
+LK_ITERATIONS = 2
+#: Jacobi sweeps of the regularised tile field (``smoothness > 0``).
+SMOOTHNESS_SWEEPS = 30
+#: Side of the box of the per-pixel zero-motion test.
+ZERO_TEST_BOX = 9
+#: A tile's mean noise variance is taken as at least this (so that ``J = G / v`` stays finite).
+MIN_VARIANCE = 1e-20
+
+
+def gradient_oracle(image):
+    """``(g_y, g_x)`` of ``image``, float64: central differences ``(P[y+1] − P[y−1]) / 2`` inside, one-sided
+    ``P[1] − P[0]`` and ``P[n−1] − P[n−2]`` on the first and last row (column); 0 along an axis of length 1."""
+    img = np.asarray(image, np.float64)
+    h, w = img.shape
+    gy = np.zeros((h, w))
+    gx = np.zeros((h, w))
+    for y in range(h):
+        for x in range(w):
+            if h > 1:
+                if y == 0:
+                    gy[y, x] = img[1, x] - img[0, x]
+                elif y == h - 1:
+                    gy[y, x] = img[h - 1, x] - img[h - 2, x]
+                else:
+                    gy[y, x] = (img[y + 1, x] - img[y - 1, x]) / 2.0
+            if w > 1:
+                if x == 0:
+                    gx[y, x] = img[y, 1] - img[y, 0]
+                elif x == w - 1:
+                    gx[y, x] = img[y, w - 1] - img[y, w - 2]
+                else:
+                    gx[y, x] = (img[y, x + 1] - img[y, x - 1]) / 2.0
+    return gy, gx
+
+
+def _bilinear_cell(shape, y, x):
+    """``((y0, x0), (y1, x1), f_y, f_x)`` of a bilinear sample at ``(y, x)``, the position clamped to
+    ``[0, h − 1] × [0, w − 1]``: ``y0 = ⌊y⌋``, ``f_y = y − y0``, ``y1 = y0 + 1`` (the last row again past it,
+    where ``f_y = 0``); the same along ``x``."""
+    h, w = shape
+    y = min(max(y, 0.0), h - 1.0)
+    x = min(max(x, 0.0), w - 1.0)
+    y0, x0 = int(np.floor(y)), int(np.floor(x))
+    return (y0, x0), (min(y0 + 1, h - 1), min(x0 + 1, w - 1)), y - y0, x - x0
+
+
+def _bilinear_taps(shape, y, x):
+    """The four ``((row, column), weight)`` taps of a bilinear sample at ``(y, x)`` (:func:`_bilinear_cell`),
+    in the order ``(y0, x0), (y0, x1), (y1, x0), (y1, x1)``, each weight the product of its two 1-D weights."""
+    (y0, x0), (y1, x1), fy, fx = _bilinear_cell(shape, y, x)
+    return [((yy, xx), wy * wx) for yy, wy in ((y0, 1.0 - fy), (y1, fy)) for xx, wx in ((x0, 1.0 - fx), (x1, fx))]
+
+
+def bilinear_oracle(image, y, x):
+    """``Σ`` weight · ``image[tap]`` over the four taps of the bilinear sample at ``(y, x)`` (clamped), float64."""
+    return sum(weight * float(image[tap]) for tap, weight in _bilinear_taps(np.shape(image), y, x))
+
+
+def lucas_kanade_oracle(ref, alt, oy, ox, tile, start, iterations=LK_ITERATIONS, gradient=None):
+    """Gauss–Newton steps of a translation for the tile at ``(oy, ox)``: ``(u (2,) float64, info (3,) float64)``.
+
+    From ``u = start``, each step sums over the tile's pixels ``p`` whose moved position ``p + u`` lies in
+    ``[0, h − 1] × [0, w − 1]`` (the others are left out): ``a = alt(p + u)`` and ``g = ∇alt(p + u)``
+    (both bilinear samples; the gradient images by :func:`gradient_oracle` of ``alt``),
+    ``G = Σ g gᵀ``, ``b = Σ g (ref(p) − a)``.  If ``det G > PD_TOLERANCE · (trace G)²`` (and ``> 0``) the step
+    ``Δ = G⁻¹ b`` is added, each component clipped to ``[−1, 1]``; otherwise the steps stop.
+    ``info = (G_yy, G_yx, G_xx)`` of the last ``G`` summed (the tile's information, before the noise).
+    ``gradient``: ``gradient_oracle(alt)`` when already made.
+    """
+    from spikeref.align import PD_TOLERANCE
+
+    h, w = alt.shape
+    gy, gx = gradient_oracle(alt) if gradient is None else gradient
+    u = np.array(start, np.float64)
+    info = np.zeros(3)
+    for _ in range(iterations):
+        g_mat = np.zeros((2, 2))
+        b = np.zeros(2)
+        for y in range(oy, oy + tile):
+            for x in range(ox, ox + tile):
+                py, px = y + u[0], x + u[1]
+                if not (0.0 <= py <= h - 1.0 and 0.0 <= px <= w - 1.0):
+                    continue  # the moved sample lies outside the image: left out
+                g = np.array([bilinear_oracle(gy, py, px), bilinear_oracle(gx, py, px)])
+                e = float(ref[y, x]) - bilinear_oracle(alt, py, px)
+                g_mat += np.outer(g, g)
+                b += g * e
+        info = np.array([g_mat[0, 0], g_mat[0, 1], g_mat[1, 1]])
+        det = g_mat[0, 0] * g_mat[1, 1] - g_mat[0, 1] * g_mat[1, 0]
+        if not (det > PD_TOLERANCE * np.trace(g_mat) ** 2 and det > 0.0):
+            break  # singular (no texture, or an edge in one direction only): keep the vector
+        u = u + np.clip(np.linalg.solve(g_mat, b), -1.0, 1.0)
+    return u, info
+
+
+def tile_noise_oracle(noise_map, tile, shape):
+    """``(ty, tx)``: the mean of ``noise_map`` over each level-0 tile (``tile × tile`` pixels, stride ``tile/2``)."""
+    ty, tx = shape
+    s = tile // 2
+    out = np.zeros((ty, tx))
+    for i in range(ty):
+        for j in range(tx):
+            total = 0.0
+            for y in range(i * s, i * s + tile):
+                for x in range(j * s, j * s + tile):
+                    total += float(noise_map[y, x])
+            out[i, j] = total / (tile * tile)
+    return out
+
+
+def regularise_oracle(vectors, info, variance, lam, sweeps=SMOOTHNESS_SWEEPS):
+    """The tile field minimising ``E(u) = Σ_i (u_i − û_i)ᵀ J_i (u_i − û_i) + λ Σ_{i~j} |u_i − u_j|²``.
+
+    ``û = vectors (ty, tx, 2)``, ``J_i = [[G_yy, G_yx], [G_yx, G_xx]] / max(v_i, MIN_VARIANCE)`` from
+    ``info (ty, tx, 3)`` and ``variance (ty, tx)``; ``i ~ j`` the 4-neighbour pairs of the tile grid.
+    ``sweeps`` Jacobi sweeps from ``û``: every tile at once, ``u_i ← (J_i + λ n_i I)⁻¹ (J_i û_i + λ Σ_{j~i} u_j)``
+    with the neighbours' values of the previous sweep (``n_i`` their number; ``∂E/∂u_i = 0`` for fixed
+    neighbours).  ``sweeps=None``: the exact minimiser, from the whole linear system.  A single tile,
+    or ``λ ≤ 0``, keeps ``û``.  float64.
+    """
+    hat = np.asarray(vectors, np.float64)
+    ty, tx = hat.shape[:2]
+    if ty * tx == 1 or lam <= 0:
+        return hat.copy()
+    jac = np.zeros((ty, tx, 2, 2))
+    for i in range(ty):
+        for j in range(tx):
+            v = max(float(variance[i, j]), MIN_VARIANCE)
+            jac[i, j] = np.array([[info[i, j, 0], info[i, j, 1]], [info[i, j, 1], info[i, j, 2]]]) / v
+
+    def neighbours(i, j):
+        return [(a, b) for a, b in ((i - 1, j), (i + 1, j), (i, j - 1), (i, j + 1)) if 0 <= a < ty and 0 <= b < tx]
+
+    if sweeps is None:  # ∇E = 0: (J + λ L ⊗ I₂) u = J û, L the grid's graph Laplacian
+        n = ty * tx
+        system = np.zeros((2 * n, 2 * n))
+        rhs = np.zeros(2 * n)
+        for i in range(ty):
+            for j in range(tx):
+                k = i * tx + j
+                system[2 * k:2 * k + 2, 2 * k:2 * k + 2] += jac[i, j]
+                rhs[2 * k:2 * k + 2] = jac[i, j] @ hat[i, j]
+                for a, b in neighbours(i, j):
+                    m = a * tx + b
+                    system[2 * k:2 * k + 2, 2 * k:2 * k + 2] += lam * np.eye(2)
+                    system[2 * k:2 * k + 2, 2 * m:2 * m + 2] -= lam * np.eye(2)
+        return np.linalg.solve(system, rhs).reshape(ty, tx, 2)
+    cur = hat.copy()
+    for _ in range(sweeps):
+        new = np.zeros_like(cur)
+        for i in range(ty):
+            for j in range(tx):
+                near = neighbours(i, j)
+                pull = sum((cur[a, b] for a, b in near), np.zeros(2))
+                new[i, j] = np.linalg.solve(jac[i, j] + lam * len(near) * np.eye(2), jac[i, j] @ hat[i, j] + lam * pull)
+        cur = new
+    return cur
+
+
+def _noise_map_oracle(noise, ref, alt):
+    """The level-0 noise variance map, float64: ``noise`` as given (a number or a map), else
+    ``½ (local_noise(ref) + local_noise(alt))``."""
+    if noise is None:
+        return 0.5 * (local_noise_oracle(ref) + local_noise_oracle(alt))
+    return np.broadcast_to(np.asarray(noise, np.float64), np.shape(ref)).copy()
+
+
+def _refine_lk_oracle(ref, alt, tile, vectors, shape, smoothness, noise):
+    """``(ty, tx, 2) float32``: every tile's integer vector refined by :func:`lucas_kanade_oracle`, then the field
+    regularised by :func:`regularise_oracle` when ``smoothness > 0``."""
+    ty, tx = shape
+    gradient = gradient_oracle(alt)
+    refined = np.zeros((ty, tx, 2))
+    info = np.zeros((ty, tx, 3))
+    for i in range(ty):
+        for j in range(tx):
+            refined[i, j], info[i, j] = lucas_kanade_oracle(ref, alt, i * (tile // 2), j * (tile // 2), tile,
+                                                            vectors[i, j], gradient=gradient)
+    if smoothness > 0:
+        variance = tile_noise_oracle(_noise_map_oracle(noise, ref, alt), tile, shape)
+        refined = regularise_oracle(refined, info, variance, smoothness)
+    return refined.astype(np.float32)
+
+
+# ----------------------------------------------------------------------------- per-pixel zero-motion test
+def zero_motion_sums_oracle(flow, reference, alternate, noise_map, rho, box=ZERO_TEST_BOX):
+    """``(S, Q)`` per pixel, float64: ``S`` the sum over the ``box × box`` box of ``d``, ``Q`` that of ``var``.
+
+    Per pixel ``p`` (``r = reference``, ``a = alternate``, both float32, ``v = noise_map[p]``): the bilinear
+    sample ``a_u = a(p + F(p))`` at the position clamped to the image (interpolated along ``x``, then along
+    ``y``, as the specification writes it), with tap weights ``w`` and ``w₀``
+    the weight of the tap on ``p`` itself (0 when ``p`` is not a tap); ``x = r(p) − a(p)``, ``y = r(p) − a_u``;
+    ``σ_x² = 2v(1 − ρ)``, ``σ_y² = v(1 + Σw² − 2ρw₀)``, ``c = v(1 + w₀)(1 − ρ)``;
+    ``d = x² − y² − (σ_x² − σ_y²)``, ``var = max(2σ_x⁴ + 2σ_y⁴ − 4c², 0)``.  The box reads ``d`` and ``var``
+    at clamped coordinates (edge replicate).
+    """
+    ref = np.asarray(reference, np.float32)
+    alt = np.asarray(alternate, np.float32)
+    h, w = ref.shape
+    d = np.zeros((h, w))
+    var = np.zeros((h, w))
+    for y in range(h):
+        for x in range(w):
+            sy, sx = y + float(flow[0, y, x]), x + float(flow[1, y, x])
+            taps = _bilinear_taps((h, w), sy, sx)
+            (y0, x0), (y1, x1), fy, fx = _bilinear_cell((h, w), sy, sx)
+            a_u = ((1.0 - fy) * ((1.0 - fx) * float(alt[y0, x0]) + fx * float(alt[y0, x1]))
+                   + fy * ((1.0 - fx) * float(alt[y1, x0]) + fx * float(alt[y1, x1])))  # along x first, as specified
+            sum_w2 = sum(weight * weight for _, weight in taps)
+            w0 = sum(weight for tap, weight in taps if tap == (y, x))
+            v = float(noise_map[y, x])
+            s_x = 2.0 * v * (1.0 - rho)
+            s_y = v * (1.0 + sum_w2 - 2.0 * rho * w0)
+            c = v * (1.0 + w0) * (1.0 - rho)
+            xd = float(ref[y, x]) - float(alt[y, x])
+            yd = float(ref[y, x]) - a_u
+            d[y, x] = xd * xd - yd * yd - (s_x - s_y)
+            var[y, x] = max(2.0 * s_x * s_x + 2.0 * s_y * s_y - 4.0 * c * c, 0.0)
+    half = box // 2
+    total_d = np.zeros((h, w))
+    total_var = np.zeros((h, w))
+    for y in range(h):
+        for x in range(w):
+            for dy in range(-half, half + 1):
+                for dx in range(-half, half + 1):
+                    yy, xx = min(max(y + dy, 0), h - 1), min(max(x + dx, 0), w - 1)
+                    total_d[y, x] += d[yy, xx]
+                    total_var[y, x] += var[yy, xx]
+    return total_d, total_var
+
+
+def zero_motion_test_oracle(flow, reference, alternate, z, noise=None, correlation=None, box=ZERO_TEST_BOX):
+    """``(2, h, w) float32``: ``flow`` set to 0 at the pixels where ``S < −z √Q`` (:func:`zero_motion_sums_oracle`).
+
+    ``noise``: the noise variance of each frame (a number or an ``(h, w)`` map; default
+    ``½ (local_noise(reference) + local_noise(alternate))``); ``correlation``: ``ρ`` (default
+    :func:`estimate_noise_correlation_oracle` of the two frames), clipped below at −½.
+    """
+    ref = np.asarray(reference, np.float32)
+    alt = np.asarray(alternate, np.float32)
+    out = np.array(flow, np.float32)
+    v = _noise_map_oracle(noise, ref, alt)
+    rho = estimate_noise_correlation_oracle(ref, alt) if correlation is None else float(correlation)
+    s, q = zero_motion_sums_oracle(out, ref, alt, v, max(rho, _MIN_CORRELATION), box)
+    for y in range(ref.shape[0]):
+        for x in range(ref.shape[1]):
+            if s[y, x] < -z * np.sqrt(q[y, x]):
+                out[:, y, x] = 0.0
+    return out

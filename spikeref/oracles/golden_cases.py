@@ -361,6 +361,97 @@ def _align_noise_aware_fast(i):
                                       estimate_noise_correlation)
 
 
+def _inputs_align_lk():
+    """A 48×64 scene for ``AlignParams(refine="lk", smoothness=300, zero_test=2)``: a still background, flat in
+    columns 0 … 12 and a smooth texture ramping in over columns 12 … 22, and a textured square object (rows
+    14 … 37, columns 30 … 53). Alternates: 0 the same scene, still; 1 the object moved by (0.75, −1.5) (its
+    texture and its edges), the background still; 2 the whole scene moved by (0.5, −0.25) (bilinear
+    resampling). Raw frames: the scene plus Gaussian noise of variance ``0.003 ×`` its value, each alternate's
+    noise correlated −½ with the reference's at the same pixel (adjacent spike windows). Flow frames (standing in
+    for the denoised frames the pipeline aligns): the raw frames blurred by a Gaussian of σ = 1. ``noise`` is the
+    true mean variance of each raw pair, ``correlation`` −½. The seed (48) was picked among 20 as the one whose
+    closest zero-test decision lies furthest from its threshold (6.9·10⁻⁴ of it)."""
+    from scipy.ndimage import gaussian_filter, shift
+
+    rng = np.random.default_rng(48)
+    h, w, m = 48, 64, 16
+    big_h, big_w = h + 2 * m, w + 2 * m
+    tex = gaussian_filter(rng.random((big_h, big_w)), 1.5)
+    tex = (tex - tex.mean()) / tex.std()
+    ramp = np.clip((np.arange(big_w) - m - 12) / 10.0, 0.0, 1.0)
+    back = 0.4 + 0.1 * np.clip(tex, -3.0, 3.0) * ramp[None, :]
+    obj = gaussian_filter(rng.random((big_h, big_w)), 1.0)
+    obj = 0.45 + 0.12 * np.clip((obj - obj.mean()) / obj.std(), -3.0, 3.0)
+    yy, xx = np.mgrid[0:big_h, 0:big_w]
+
+    def scene(dy, dx):  # the object moved by (dy, dx): alternate[y + dy, x + dx] = reference[y, x] on it
+        inside = (yy - m - dy >= 14) & (yy - m - dy < 38) & (xx - m - dx >= 30) & (xx - m - dx < 54)
+        return np.where(inside, shift(obj, (dy, dx), order=1, mode="nearest"), back)
+
+    still = scene(0.0, 0.0)
+    scenes = [s[m:m + h, m:m + w] for s in (still, still, scene(0.75, -1.5),
+                                            shift(still, (0.5, -0.25), order=1, mode="nearest"))]
+    var = [0.003 * s for s in scenes]
+    a = rng.standard_normal((h, w))
+    raw_ref = (scenes[0] + np.sqrt(var[0]) * a).astype(np.float32)
+    raw_alts = np.stack([scenes[n] + np.sqrt(var[n]) * (-0.5 * a + np.sqrt(0.75) * rng.standard_normal((h, w)))
+                         for n in (1, 2, 3)]).astype(np.float32)
+    ref = gaussian_filter(raw_ref.astype(np.float64), 1.0).astype(np.float32)
+    alts = np.stack([gaussian_filter(r.astype(np.float64), 1.0) for r in raw_alts]).astype(np.float32)
+    return {"reference": ref, "alternates": alts, "raw_reference": raw_ref, "raw_alternates": raw_alts,
+            "noise": np.stack([0.5 * (var[0] + var[n]) for n in (1, 2, 3)]), "correlation": np.float64(-0.5),
+            "shifts": np.array([[0.0, 0.0], [0.75, -1.5], [0.5, -0.25]])}
+
+
+def _align_lk_params(**changes):
+    """The case's alignment parameters: the pipeline's options (z = 3, Lucas–Kanade, λ = 300, zero test at 2σ)
+    on a three-level pyramid for 48×64 frames."""
+    from spikeref.align import AlignParams
+
+    kw = {"levels": 3, "tile_by_step": (16, 8), "coarse_tile": 8, "search_radius": (1, 4, 4), "subpixel": True,
+          "prefer_centre": 3.0, "refine": "lk", "smoothness": 300.0, "zero_test": 2.0}
+    kw.update(changes)
+    return AlignParams(**kw)
+
+
+def _align_lk_outputs(i, tiles, dense):
+    """For steps 0 and 1 and each alternate: ``lk`` — the tile vectors with ``smoothness = 0`` (noise given);
+    ``given`` — the vectors and the flow of the flow frames with the noise and correlation given and the zero
+    test on the raw frames; ``estimated`` — the vectors and flow of the raw frames themselves, every noise
+    quantity estimated from them."""
+    full, plain = _align_lk_params(), _align_lk_params(smoothness=0.0, zero_test=None)
+    ref, raw_ref = i["reference"], i["raw_reference"]
+    out = {}
+    for step in (0, 1):
+        lk, vg, fg, ve, fe = [], [], [], [], []
+        for n in range(len(i["alternates"])):
+            alt, raw_alt = i["alternates"][n], i["raw_alternates"][n]
+            kw = {"noise": i["noise"][n], "correlation": float(i["correlation"])}
+            lk.append(tiles(ref, alt, step, plain, **kw)[0])
+            vg.append(tiles(ref, alt, step, full, **kw)[0])
+            fg.append(dense(ref, alt, step, full, raw=(raw_ref, raw_alt), **kw))
+            ve.append(tiles(raw_ref, raw_alt, step, full)[0])
+            fe.append(dense(raw_ref, raw_alt, step, full))
+        out[f"vectors_lk_step{step}"] = np.stack(lk)
+        out[f"vectors_given_step{step}"] = np.stack(vg)
+        out[f"flow_given_step{step}"] = np.stack(fg)
+        out[f"vectors_estimated_step{step}"] = np.stack(ve)
+        out[f"flow_estimated_step{step}"] = np.stack(fe)
+    return out
+
+
+def _align_lk_oracle(i):
+    from spikeref.oracles.align import align_oracle, align_tiles_oracle
+
+    return _align_lk_outputs(i, align_tiles_oracle, align_oracle)
+
+
+def _align_lk_fast(i):
+    from spikeref.align import align, align_tiles
+
+    return _align_lk_outputs(i, align_tiles, align)
+
+
 #: The golden pipeline's settings: W = 5, K = 3, L = 3 on a 64×64 RGGB stream of 45 planes
 #: (frames 3 … 5 exist), with an alignment pyramid small enough for 32×32 Bayer planes.
 _PIPELINE = {"window": 5, "K": 3, "L": 3, "frames": (3, 4), "cfa": "RGGB",
@@ -713,6 +804,33 @@ CASES: list[GoldenCase] = [
                 "subpixel": True, "prefer_centre": 3.0, "pyramid_kernel": [1, 4, 6, 4, 1], "local_noise_box": 15,
                 "min_correlation": -0.5},
         spec="docs/spec/align.md#align_noise_aware",
+    ),
+    GoldenCase(
+        "align_lk_regularised",
+        "— (not in the paper or HDR+; §4.2's alignment with the pipeline's AlignParams(prefer_centre=3, refine=\"lk\", "
+        "smoothness=300, zero_test=2))",
+        "spikeref.align.align_tiles, spikeref.align.align (noise=, correlation=, raw=)",
+        "spikeref.oracles.align.align_tiles_oracle (refine=\"lk\", smoothness > 0), "
+        "spikeref.oracles.align.align_oracle (zero_test), lucas_kanade_oracle, regularise_oracle, "
+        "zero_motion_test_oracle",
+        "The alignment options of the default pipeline beyond HDR+: two Lucas–Kanade (Gauss–Newton) steps per tile "
+        "from the integer vector instead of the quadratic fit (samples moved outside the image left out); the tile "
+        "field regularised towards its 4-neighbours by each tile's information over its mean noise variance "
+        "(λ = 300, 30 Jacobi sweeps); the dense flow set to zero per pixel where zero motion explains the raw "
+        "frames better than the flow by 2σ of the noise over a 9×9 box. A 48×64 scene (flat left, textured "
+        "right, a textured square object) against three alternates: still, the object moved by (0.75, −1.5), "
+        "everything moved by (0.5, −0.25); noise correlated −½. AlignParams(levels=3, tile_by_step=(16, 8), "
+        "coarse_tile=8, search_radius=(1, 4, 4), prefer_centre=3), steps 0 and 1; the tile vectors without the "
+        "regularisation (lk), the vectors and flow of the blurred flow frames with the noise given and the zero "
+        "test on the raw frames (given), and of the raw frames with every noise quantity estimated (estimated). "
+        "Convention: alternate[y+dy, x+dx] ≈ reference[y, x]; in_shifts holds the true motion.",
+        _inputs_align_lk, _align_lk_oracle, _align_lk_fast,
+        rtol=1e-5, atol=1e-6,
+        params={"levels": 3, "tile_by_step": [16, 8], "coarse_tile": 8, "search_radius": [1, 4, 4],
+                "subpixel": True, "prefer_centre": 3.0, "refine": "lk", "lk_iterations": 2, "smoothness": 300.0,
+                "smoothness_sweeps": 30, "zero_test": 2.0, "zero_test_box": 9, "pyramid_kernel": [1, 4, 6, 4, 1],
+                "local_noise_box": 15, "min_correlation": -0.5, "pd_tolerance": 1e-9, "min_variance": 1e-20},
+        spec="docs/spec/align.md#align_lk_regularised",
     ),
     GoldenCase(
         "eq12_revisible_loss", "Eq. 12", "spikeref.denoise.revisible.revisible_loss",
