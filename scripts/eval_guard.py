@@ -141,7 +141,7 @@ def main() -> None:
             methods["network + guard, σ of the plane" + tag] = lambda p, w, s, d=guarded: d(p, window=w)
         methods["network + guard" + tag] = lambda p, w, s, d=guarded: (
             d(p, window=w, short=s, short_window=NOISE_WINDOW) if w > NOISE_WINDOW and s is not None
-            else d(p, window=w))
+            else d(p, window=w, accumulate=args.accumulate))
     if not args.no_peers:
         for name in ("bm3d", "nlm"):
             if peer_available(name):

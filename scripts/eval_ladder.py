@@ -35,9 +35,16 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=4, help="scored frames per scene")
     ap.add_argument("--out", type=Path, default=None, help="write the Markdown here too")
     ap.add_argument("--png", type=Path, default=None, help="draw the ladder here (needs matplotlib)")
+    ap.add_argument("--accumulate", choices=("count", "charge"), default=None,
+                    help="ReconstructParams.accumulate of the method's rungs (default: the package's default)")
+    ap.add_argument("--weights", default=None, help="denoiser weights (.npz or a bundled name; default bundled)")
     args = ap.parse_args()
+    from spikeref.denoise.denoiser import Denoiser
+
     scenes = [load_bench_scene(p) for p in sorted(SCENES.glob("*.toml"))]
-    res = run_ladder(scenes, seed=SEED, frames=args.frames)
+    params = {"accumulate": args.accumulate} if args.accumulate else None
+    res = run_ladder(scenes, seed=SEED, frames=args.frames, params=params,
+                     denoiser=Denoiser.load(args.weights) if args.weights else None)
     # TFP(W=100) beside the ladder: the paper's Table 1 reference
     tfp100 = {}
     for sc in scenes:

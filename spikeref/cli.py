@@ -135,6 +135,10 @@ def _check_seed(value) -> None:
     _check_int(value, "--seed", 0, "a whole number ≥ 0")
 
 
+#: The bundled network of ``--accumulate charge`` when no ``--weights`` are given (trained on window charges).
+CHARGE_WEIGHTS = "b2u_w16_charge"
+
+
 def _load_denoiser(weights, **kw):
     """``Denoiser.load`` with a damaged weights file reported as one line (before any output is opened)."""
     import zipfile
@@ -342,6 +346,8 @@ def cmd_denoise(args) -> int:
                        f"(the stream has {len(stream)} planes)")
     if args.frames is not None:
         total = min(total, args.frames)
+    if args.accumulate == "charge" and args.weights is None:
+        args.weights = CHARGE_WEIGHTS  # a network trained on the charge's noise, not the count's
     den = _load_denoiser(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink, guard=args.guard)
     frames = den.frames(stream, args.window, start=args.start, count=args.frames, accumulate=args.accumulate)
     first = next(frames, None)  # the generator's own checks (and the first frame) before any output is opened
@@ -426,6 +432,8 @@ def cmd_reconstruct(args) -> int:
         raise CliError(f"--paper is --preset paper; give one of --paper and --preset {args.preset}")
     preset = "paper" if args.paper else (args.preset or "default")
     args.paper = preset == "paper"
+    if args.accumulate == "charge" and args.weights is None:
+        args.weights = CHARGE_WEIGHTS  # a network trained on the charge's noise, not the count's
     chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp),
                                 ("demosaic", args.demosaic), ("accumulate", args.accumulate)) if v is not None}
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,
@@ -928,7 +936,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--accumulate", choices=["count", "charge"], default="count",
                    help="what each window gives: count (default; Eq. 4, its spikes / W) or charge (the charge its "
                         "pixels integrated, read from the spike times up to 200 readouts around the window's edges; "
-                        "not in the paper; spikeref.charge). Weights trained on charge: --weights b2u_w16_charge")
+                        "not in the paper; spikeref.charge); without --weights it uses the bundled b2u_w16_charge, "
+                        "trained on window charges")
     p.add_argument("--no-shrink", action="store_true",
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
@@ -996,7 +1005,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="what each window contributes: count (default; Eq. 4, its spikes) or charge (the charge its "
                         "pixels integrated, read from the spike times up to 200 readouts around the window's edges; "
                         "the count's ±1 quantisation at the edges falls by about the firing rate; not in the paper; "
-                        "spikeref.charge, docs/results.md)")
+                        "spikeref.charge, docs/results.md); without --weights it uses the bundled b2u_w16_charge")
     p.add_argument("--weights", type=Path, default=None,
                    help="denoiser weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little "
                         "sharper)")

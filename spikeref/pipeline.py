@@ -466,8 +466,10 @@ class Reconstructor:
 
             # the guard (if the Denoiser has one) on the output only: frames that are only aligned
             # need no guard, and it would cost them a second network pass
+            accumulate = self.params.accumulate
+
             def run(planes, exposure, final):
-                return denoiser(planes, mode, window=exposure, guard=None if final else "off")
+                return denoiser(planes, mode, window=exposure, guard=None if final else "off", accumulate=accumulate)
 
             return run
         if not callable(denoiser):

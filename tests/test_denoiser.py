@@ -64,7 +64,8 @@ def test_long_windows_measure_the_guards_noise_on_their_first_planes():
         den(planes, window=w, short=short)
 
 
-@pytest.mark.parametrize("name, width, domain", [("b2u_w16", 16, "count"), ("b2u_w32", 32, "rate")])
+@pytest.mark.parametrize("name, width, domain", [("b2u_w16", 16, "count"), ("b2u_w32", 32, "rate"),
+                                                 ("b2u_w16_charge", 16, "count")])
 def test_bundled_weights_load_and_are_documented(name, width, domain):
     den = Denoiser.load(name)  # a bundled name resolves to spikeref/denoise/weights/NAME.npz
     path = DEFAULT_WEIGHTS.parent / f"{name}.npz"
@@ -77,6 +78,7 @@ def test_bundled_weights_load_and_are_documented(name, width, domain):
     allowed = ("spikezoo_uhsr.npz", "spikezoo_data_reds_sim_250x400.dat")
     assert all(d["file"].startswith("train_") or d["file"] in allowed for d in meta["data"])
     assert Denoiser.load().unet.meta == Denoiser.load("b2u_w16").unet.meta  # the default
+    assert meta.get("accumulate", "count") == ("charge" if name.endswith("_charge") else "count")
 
 
 @pytest.mark.parametrize("name", ["b2u_w16", "b2u_w32"])
@@ -108,6 +110,18 @@ def test_cli_denoise_writes_video_and_exr(tmp_path):
     assert out.stat().st_size > 0
     assert sorted(p.name for p in (tmp_path / "exr").iterdir()) == [
         "frame_000000.exr", "frame_000001.exr", "frame_000002.exr"]
+
+
+def test_cli_denoise_charge_takes_the_charge_network(tmp_path, monkeypatch):
+    """--accumulate charge: window charges (spikeref.charge) and, without --weights, b2u_w16_charge."""
+    import spikeref.cli as cli
+
+    loaded = []
+    real = cli._load_denoiser
+    monkeypatch.setattr(cli, "_load_denoiser", lambda weights, **kw: loaded.append(weights) or real(weights, **kw))
+    out = tmp_path / "c.mp4"
+    assert main(["denoise", "-W", "10", "--frames", "1", "--accumulate", "charge", "-o", str(out)]) == 0
+    assert out.stat().st_size > 0 and loaded == ["b2u_w16_charge"]
 
 
 def test_cli_denoise_errors(tmp_path, capsys):

@@ -196,3 +196,24 @@ def test_carried_noise_caps_the_plane_estimate_at_long_windows():
         sure_blend(y, smoother, window=long_w, carried=[-1.0])
     with pytest.raises(ValueError, match="short_window must be a positive"):
         carried_excess_variance(short, 0, long_w)
+
+
+def test_charge_floor_is_below_the_counts_and_bounds_ideal_pixels():
+    """accumulate="charge": the floor p²/(6W²) (≤ the count's) is about what ideal pixels' charge rates show."""
+    from spikeref.charge import charge_rates
+    from spikeref.oracles.guard import quantisation_variance_oracle
+
+    rng = np.random.default_rng(6)
+    w = 10
+    for p in (0.1913, 0.3771, 0.6133):
+        phase = rng.random(4000)
+        charge = phase[None] + p * np.arange(1, 3 * w + 1)[:, None]
+        before = phase[None] + p * np.arange(0, 3 * w)[:, None]
+        spikes = (np.floor(charge) > np.floor(before)).astype(np.uint8)[:, None, :]
+        measured = np.mean((charge_rates(spikes, w, start=w, count=1)[0] - p) ** 2)
+        floor = float(quantisation_variance(p, w, "charge"))
+        assert floor == pytest.approx(quantisation_variance_oracle(p, w, "charge"))
+        assert floor == pytest.approx(min(p * p, 1.0) / (6 * w * w)) and floor <= float(quantisation_variance(p, w))
+        assert 0.3 * floor < measured < 1.2 * floor  # the ±½-readout rounding of each edge, about p²/12 each
+    with pytest.raises(ValueError, match="accumulate must be count or charge"):
+        quantisation_variance(0.5, 10, "photons")

@@ -106,8 +106,9 @@ class Denoiser:
         """From a weights ``.npz`` or the name of a bundled file (default: :data:`DEFAULT_WEIGHTS`).
 
         Bundled (``spikeref/denoise/weights/``, see ``docs/results.md``): ``b2u_w16`` (width 16,
-        trained on counts; the default) and ``b2u_w32`` (width 32, trained on rates; about four
-        times the time per frame with the direct convolution).
+        trained on counts; the default), ``b2u_w16_charge`` (width 16, trained on the timing-aware
+        window charge of :mod:`spikeref.charge`: for ``accumulate="charge"``) and ``b2u_w32`` (width
+        32, trained on rates; about four times the time per frame with the direct convolution).
         """
         if path is None:
             path = DEFAULT_WEIGHTS
@@ -122,7 +123,8 @@ class Denoiser:
         return f"Denoiser({self.unet!r}, mode={self.mode!r}, shrink={self.shrink}, guard={self.guard!r})"
 
     def __call__(self, planes, mode: str | None = None, window: float | None = None,
-                 guard: str | None = None, short=None, short_window: float | None = None) -> np.ndarray:
+                 guard: str | None = None, short=None, short_window: float | None = None,
+                 accumulate: str = "count") -> np.ndarray:
         """Denoise firing-rate planes ``(..., h, w)`` float (e.g. ``(4, H/2, W/2)``); same shape, float32.
 
         ``window`` is the exposure behind the rates, in planes (``W`` of Eq. 4; for a warped
@@ -135,6 +137,8 @@ class Denoiser:
         the noise there and carries it to ``window``
         (:func:`~spikeref.denoise.guard.carried_excess_variance`; texture is not read as noise at
         long windows).  Used only with the guard and ``window``; :meth:`frames` passes them.
+        ``accumulate="charge"`` says the planes are :mod:`spikeref.charge` rates: the guard's
+        noise floor is then the charge's (:func:`~spikeref.denoise.guard.quantisation_variance`).
         """
         use = self.guard if guard is None else _check_guard(guard)
         if use == "sure":
@@ -150,7 +154,7 @@ class Denoiser:
                     raise ValueError("short= needs short_window= (its exposure in planes)")
                 carried = carried_excess_variance(short_arr, short_window, window)
             out, _ = sure_blend(arr, lambda z: self._network(z, mode, window), self.guard_radius, window=window,
-                                carried=carried)
+                                carried=carried, accumulate=accumulate)
             return out
         out = self._network(planes, mode, window)
         if self.shrink and window is not None and window >= 1:
@@ -227,5 +231,5 @@ class Denoiser:
             if self.guard == "sure" and window > NOISE_WINDOW and accumulate == "count":
                 short = eq4(stream, NOISE_WINDOW, start=first, count=1)[0]
                 extra = {"short": bayer_planes(short), "short_window": NOISE_WINDOW}
-            clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window, **extra))
+            clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window, accumulate=accumulate, **extra))
             yield k, (demosaic_bilinear(clean, stream.cfa) if stream.cfa else clean)

@@ -196,7 +196,7 @@ def sure_alpha(noisy, denoised, probed, probe, eps, sigma, radius: int = DEFAULT
     return np.clip(alpha, 0.0, 1.0)
 
 
-def quantisation_variance(rates, window: float) -> np.ndarray:
+def quantisation_variance(rates, window: float, accumulate: str = "count") -> np.ndarray:
     """The noise floor of a spike count: ``min(min(p, 1 − p) / W, 1 / (6 W²))`` per pixel (rate units²).
 
     A pixel that fires at rate ``p`` for ``W`` readouts with a random phase counts ``⌊φ + pW⌋``
@@ -205,10 +205,20 @@ def quantisation_variance(rates, window: float) -> np.ndarray:
     phase otherwise (the ±1 quantisation of the count).  Every spike camera has at least this
     noise; shot noise, dark current and spurious spikes add to it.  ``p`` is clipped to ``[0, 1]``
     (saturation mirrors the dark end).
+
+    ``accumulate="charge"``: the floor of :func:`spikeref.charge.window_charge`'s rates instead, at
+    most ``p² / (6 W²)``: each edge's phase is read from spike times whose ±½-readout rounding is a
+    fraction ``p`` of the interval, so the ±1 of the count shrinks by about ``p`` (the count's floor
+    where that is lower).
     """
+    if accumulate not in ("count", "charge"):
+        raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
     p = np.clip(np.asarray(rates, dtype=np.float64), 0.0, 1.0)
     w = float(window)
-    return np.minimum(np.minimum(p, 1.0 - p) / w, 1.0 / (6.0 * w * w))
+    floor = np.minimum(np.minimum(p, 1.0 - p) / w, 1.0 / (6.0 * w * w))
+    if accumulate == "charge":
+        floor = np.minimum(floor, p * p / (6.0 * w * w))
+    return floor
 
 
 def carried_excess_variance(short, short_window: float, window: float) -> np.ndarray:
@@ -242,7 +252,7 @@ def carried_excess_variance(short, short_window: float, window: float) -> np.nda
 
 
 def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
-               window: float | None = None, carried=None) -> tuple[np.ndarray, np.ndarray]:
+               window: float | None = None, carried=None, accumulate: str = "count") -> tuple[np.ndarray, np.ndarray]:
     """Guard a denoiser: ``y + α (f(y) − y)`` with the SURE-optimal ``α`` (module docstring).
 
     Parameters
@@ -265,6 +275,9 @@ def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
         ``window`` (:func:`carried_excess_variance`); needs ``window``.  When given, each plane's
         ``σ²`` is capped at ``carried + `` the mean of :func:`quantisation_variance` of ``f(y)``
         (module docstring: texture read as noise at long windows).
+    accumulate : {"count", "charge"}
+        What the rates are: Eq. 4's counts over ``window`` or :mod:`spikeref.charge`'s charges;
+        sets the floor (:func:`quantisation_variance`).
 
     Returns
     -------
@@ -277,6 +290,8 @@ def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
         raise ValueError(f"sigma must be finite and ≥ 0; got {sigma!r}")
     if window is not None and (isinstance(window, bool) or not np.isfinite(window) or window <= 0):
         raise ValueError(f"window must be a positive number of planes; got {window!r}")
+    if accumulate not in ("count", "charge"):
+        raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
     if carried is not None:
         if window is None:
             raise ValueError("carried needs window= (the exposure the variance was carried to)")
@@ -287,7 +302,7 @@ def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
     if f.shape != y.shape:
         raise ValueError(f"the denoiser returned shape {f.shape} for input {y.shape}")
     s2 = sig ** 2
-    floor = None if window is None else quantisation_variance(f, window)
+    floor = None if window is None else quantisation_variance(f, window, accumulate)
     if carried is not None:
         s2 = np.minimum(s2, extra + floor.reshape(y.shape[:-2] + (-1,)).mean(axis=-1))
     variance = np.broadcast_to(s2[..., None, None], y.shape)

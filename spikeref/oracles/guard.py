@@ -7,13 +7,17 @@ import numpy as np
 __all__ = ["noise_sigma_oracle", "sure_alpha_oracle", "quantisation_variance_oracle", "carried_excess_variance_oracle"]
 
 
-def quantisation_variance_oracle(p, window):
+def quantisation_variance_oracle(p, window, accumulate="count"):
     """``{pW}(1 − {pW})/W²`` averaged over the phase: ``p(1 − pW)/W ≈ p/W`` below one spike, else ``1/(6W²)``.
 
-    Written as the implementation's floor ``min(min(p, 1 − p)/W, 1/(6W²))`` for one pixel.
+    Written as the implementation's floor ``min(min(p, 1 − p)/W, 1/(6W²))`` for one pixel; for the
+    window charge (``accumulate="charge"``) at most ``p²/(6W²)``.
     """
     p = min(max(float(p), 0.0), 1.0)
-    return min(min(p, 1 - p) / window, 1 / (6 * window * window))
+    floor = min(min(p, 1 - p) / window, 1 / (6 * window * window))
+    if accumulate == "charge":
+        floor = min(floor, p * p / (6 * window * window))
+    return floor
 
 
 def noise_sigma_oracle(plane, keep=0.75):
