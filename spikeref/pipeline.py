@@ -466,10 +466,10 @@ class Reconstructor:
 
             # the guard (if the Denoiser has one) on the output only: frames that are only aligned
             # need no guard, and it would cost them a second network pass
-            accumulate = self.params.accumulate
+            extra = {"accumulate": "charge"} if self.params.accumulate == "charge" else {}  # count: the default
 
             def run(planes, exposure, final):
-                return denoiser(planes, mode, window=exposure, guard=None if final else "off", accumulate=accumulate)
+                return denoiser(planes, mode, window=exposure, guard=None if final else "off", **extra)
 
             return run
         if not callable(denoiser):
