@@ -83,7 +83,9 @@ def scene_cases(which: str, windows, keys=(), short: int | None = None, accumula
                 truth = ground_truth(sc.scene, w, planes=start + w, start=start)[0]
                 case = (sc.key, w, planes, truth, sc.stream.cfa)
                 if short is not None:
-                    case += (bayer_planes(eq4(sc.stream, short, start=start, count=1)[0]),)
+                    first = (charge_rates(sc.stream, short, start=start, count=1) if accumulate == "charge"
+                             else eq4(sc.stream, short, start=start, count=1))[0]
+                    case += (bayer_planes(first),)
                 yield case
         sc.stream = None
 
@@ -105,7 +107,9 @@ def real_cases(windows, short: int | None = None, accumulate: str = "count"):
                     rate = spikes[start : start + w].mean(axis=0, dtype=np.float64).astype(np.float32)
                 case = ("real_outdoor", w, bayer_planes(rate), truth, None)
                 if short is not None:
-                    first = spikes[start : start + short].mean(axis=0, dtype=np.float64).astype(np.float32)
+                    first = (charge_rates(spikes[: start + short + 200], short, start=start, count=1)[0]
+                             if accumulate == "charge"
+                             else spikes[start : start + short].mean(axis=0, dtype=np.float64).astype(np.float32))
                     case += (bayer_planes(first),)
                 yield case
 
@@ -124,7 +128,7 @@ def main() -> None:
     ap.add_argument("--no-plain", action="store_true", help="leave out the networks without the guard")
     ap.add_argument("--accumulate", choices=("count", "charge"), default="count",
                     help="the window's Eq. 4 rates (default) or its timing-aware charge rates (spikeref.charge), "
-                         "for every method; the guard then measures the noise on the window itself")
+                         "for every method (the guard's short window too)")
     ap.add_argument("--plane-noise", action="store_true",
                     help="also the guard with σ from the plane alone at every W (before 2026-11-24's default)")
     ap.add_argument("--speed", action="store_true", help="seconds per 250×400 frame, network against BM3D")
@@ -140,14 +144,14 @@ def main() -> None:
         if args.plane_noise:
             methods["network + guard, σ of the plane" + tag] = lambda p, w, s, d=guarded: d(p, window=w)
         methods["network + guard" + tag] = lambda p, w, s, d=guarded: (
-            d(p, window=w, short=s, short_window=NOISE_WINDOW) if w > NOISE_WINDOW and s is not None
-            else d(p, window=w, accumulate=args.accumulate))
+            d(p, window=w, short=s, short_window=NOISE_WINDOW, accumulate=args.accumulate)
+            if w > NOISE_WINDOW and s is not None else d(p, window=w, accumulate=args.accumulate))
     if not args.no_peers:
         for name in ("bm3d", "nlm"):
             if peer_available(name):
                 peer = PeerDenoiser(name)
                 methods[peer.name] = lambda p, w, s, peer=peer: peer(p, window=w)
-    short = NOISE_WINDOW if args.accumulate == "count" else None
+    short = NOISE_WINDOW
     cases = (real_cases(windows, short, args.accumulate) if args.set == "real"
              else scene_cases(args.set, windows, short=short, accumulate=args.accumulate))
     table, secs, keys = {}, {m: [] for m in methods}, []

@@ -467,15 +467,17 @@ class Reconstructor:
             # the guard (if the Denoiser has one) on the output only: frames that are only aligned
             # need no guard, and it would cost them a second network pass
             extra = {"accumulate": "charge"} if self.params.accumulate == "charge" else {}  # count: the default
+            short_window = self.params.window
 
-            def run(planes, exposure, final):
-                return denoiser(planes, mode, window=exposure, guard=None if final else "off", **extra)
+            def run(planes, exposure, final, short=None):
+                more = {"short": short, "short_window": short_window} if short is not None and final else {}
+                return denoiser(planes, mode, window=exposure, guard=None if final else "off", **extra, **more)
 
             return run
         if not callable(denoiser):
             raise TypeError(f"denoiser must be a Denoiser or a callable on (4, h, w) planes; "
                             f"got {type(denoiser).__name__}")
-        def call(planes, exposure, final):
+        def call(planes, exposure, final, short=None):
             with self.timed("network"):  # a plain callable counts as the network
                 return denoiser(planes)
 
@@ -604,7 +606,11 @@ class _State:
         if entry[1] is None:
             with self.timed("guard"):  # the network's passes inside are timed apart
                 exposure = exposure_planes(self.p.window, self.p.K, level)
-                out = np.asarray(self.rec._denoise(entry[0], exposure, level == self.p.L), dtype=np.float32)
+                final = level == self.p.L
+                # charges: the guard measures the noise on the reference window's own charge and carries it
+                # to the exposure (spikeref.denoise.guard.carried_excess_variance), as denoise mode does
+                short = self.planes(0, k) if final and level > 0 and self.p.accumulate == "charge" else None
+                out = np.asarray(self.rec._denoise(entry[0], exposure, final, short), dtype=np.float32)
             if out.shape != entry[0].shape:
                 raise ValueError(f"the denoiser returned shape {out.shape} for planes {entry[0].shape}")
             if not np.all(np.isfinite(out)):

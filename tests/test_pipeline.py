@@ -81,6 +81,32 @@ def test_count_domain_denoiser_is_told_each_steps_exposure(sample):
     assert sorted(set(seen)) == [10.0, pytest.approx(30.0), pytest.approx(10 * 81 / 19)]
 
 
+def test_charge_output_guard_measures_the_noise_on_the_reference_window(sample):
+    """accumulate="charge": the output's guard gets the reference window's charge (short=, W planes); the frames
+    that are only aligned get no guard; a count run passes neither (a Denoiser without the arguments still works)."""
+    from spikeref.charge import charge_rates
+    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.denoise.unet import UNet, UNetSpec
+
+    calls = []
+
+    class Recording(Denoiser):
+        def __call__(self, planes, mode=None, window=None, guard=None, **kw):
+            calls.append((guard, kw))
+            return np.asarray(planes, np.float32)
+
+    net = UNet.random(UNetSpec(width=4, depth=3), seed=0)
+    den = Recording(UNet(net.spec, net.params, {"input_domain": "count"}))
+    list(Reconstructor(sample, ReconstructParams(window=10, K=3, L=2, accumulate="charge"), denoiser=den).frames(6, 7))
+    final = [kw for guard, kw in calls if guard is None]
+    assert len(final) == 1 and final[0]["accumulate"] == "charge" and final[0]["short_window"] == 10
+    np.testing.assert_allclose(final[0]["short"], bayer_planes(charge_rates(sample, 10, start=60, count=1)[0]),
+                               rtol=1e-6)
+    calls.clear()
+    list(Reconstructor(sample, ReconstructParams(window=10, K=3, L=2), denoiser=den).frames(6, 7))
+    assert all(kw == {} for _, kw in calls)
+
+
 def test_zero_flow_is_weighted_accumulation_over_the_support(sample):
     # align=False: step 1 sums K windows (Eq. 14 with F = 0); step 2 averages K of those (Eq. 15):
     # windows k−2 … k+2 weighted 1, 2, 3, 2, 1 over 9 — the "weighted accumulation" of §4.2

@@ -152,7 +152,7 @@ class Denoiser:
                     raise ValueError(f"short must have the shape of planes {arr.shape}; got {short_arr.shape}")
                 if short_window is None:
                     raise ValueError("short= needs short_window= (its exposure in planes)")
-                carried = carried_excess_variance(short_arr, short_window, window)
+                carried = carried_excess_variance(short_arr, short_window, window, accumulate)
             out, _ = sure_blend(arr, lambda z: self._network(z, mode, window), self.guard_radius, window=window,
                                 carried=carried, accumulate=accumulate)
             return out
@@ -200,8 +200,8 @@ class Denoiser:
         ``window`` longer than :data:`~spikeref.denoise.guard.NOISE_WINDOW` planes, the guard
         measures the noise on the window's first ``NOISE_WINDOW`` planes (``short=`` of
         :meth:`__call__`).  ``accumulate="charge"`` takes each window's timing-aware charge
-        (:func:`spikeref.charge.charge_rates`; not in the paper) instead of Eq. 4's count; the
-        guard then measures the noise on the window itself.
+        (:func:`spikeref.charge.charge_rates`; not in the paper) instead of Eq. 4's count, and the
+        short window's charge for the guard.
         """
         from spikeref.accumulate import accumulate as eq4
         from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
@@ -228,8 +228,11 @@ class Denoiser:
             else:
                 rates = eq4(stream, window, start=first, count=1)[0]
             extra = {}
-            if self.guard == "sure" and window > NOISE_WINDOW and accumulate == "count":
-                short = eq4(stream, NOISE_WINDOW, start=first, count=1)[0]
+            if self.guard == "sure" and window > NOISE_WINDOW:
+                if accumulate == "charge":
+                    short = charge_rates(stream, NOISE_WINDOW, start=first, count=1)[0]
+                else:
+                    short = eq4(stream, NOISE_WINDOW, start=first, count=1)[0]
                 extra = {"short": bayer_planes(short), "short_window": NOISE_WINDOW}
             clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window, accumulate=accumulate, **extra))
             yield k, (demosaic_bilinear(clean, stream.cfa) if stream.cfa else clean)

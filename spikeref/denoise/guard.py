@@ -48,7 +48,8 @@ Interpretations (the noise of spike counts):
   ``window`` is given (the pipeline), the count's :func:`quantisation_variance` at the network's output.
 * **Long windows: the noise measured on a short one** (``carried=``; :meth:`Denoiser.frames
   <spikeref.denoise.denoiser.Denoiser.frames>` and ``spikeref denoise`` pass it for windows longer
-  than :data:`NOISE_WINDOW` planes).  At ``W ≳ 50`` every estimate made from the plane itself reads
+  than :data:`NOISE_WINDOW` planes, and the pipeline for its output with ``accumulate="charge"``,
+  the short window being the reference window).  At ``W ≳ 50`` every estimate made from the plane itself reads
   texture as noise: on the real SpikingSIM recording it is 1.3–2.4× the true noise at ``W`` = 50–200
   and the guard then trusts a network that smooths the branches (``docs/results.md``).  On a short
   window of the same stream the noise dominates the texture, so :func:`carried_excess_variance`
@@ -58,6 +59,8 @@ Interpretations (the noise of spike counts):
   quantisation floor plus a part that falls as ``1/W``; a fixed-pattern part (threshold spread, which
   does not fall with ``W``) is not carried, so where it dominates the cap keeps more of the input
   (measured: ``docs/results.md``).
+* ``accumulate="charge"`` (the rates are :mod:`spikeref.charge`'s): the floor is the charge's,
+  ``min(q, p²/(6W²))`` (:func:`quantisation_variance`), in both the cap and the per-pixel floor.
   The probe's step is ``ε = 0.05 · √(mean over the plane of σ²)`` (:func:`probe_step` of the root mean
   variance); where ``σ² = 0`` everywhere (no noise at all) ``α = 0``: nothing is removed.
 
@@ -221,7 +224,7 @@ def quantisation_variance(rates, window: float, accumulate: str = "count") -> np
     return floor
 
 
-def carried_excess_variance(short, short_window: float, window: float) -> np.ndarray:
+def carried_excess_variance(short, short_window: float, window: float, accumulate: str = "count") -> np.ndarray:
     """The noise variance above the quantisation floor, measured on a short window, carried to ``window``.
 
     ``e = max(0, σ_c(short)² − mean q(short, W₀)) · W₀ / W`` per plane, with ``σ_c`` the plane
@@ -236,6 +239,8 @@ def carried_excess_variance(short, short_window: float, window: float) -> np.nda
         planes of the long window).
     short_window, window : float
         ``W₀`` and ``W`` in planes, both > 0.
+    accumulate : {"count", "charge"}
+        What the rates are (the floor subtracted: :func:`quantisation_variance`).
 
     Returns
     -------
@@ -247,7 +252,7 @@ def carried_excess_variance(short, short_window: float, window: float) -> np.nda
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                 or not np.isfinite(value) or value <= 0:
             raise ValueError(f"{name} must be a positive number of planes; got {value!r}")
-    floor = quantisation_variance(y, short_window).reshape(y.shape[:-2] + (-1,)).mean(axis=-1)
+    floor = quantisation_variance(y, short_window, accumulate).reshape(y.shape[:-2] + (-1,)).mean(axis=-1)
     return np.maximum(0.0, noise_sigma(y) ** 2 - floor) * (float(short_window) / float(window))
 
 
