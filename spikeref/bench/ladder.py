@@ -26,6 +26,9 @@ rung                what it is
 ``limit``           the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
 ``ours_mhc``,       beyond Ψ: ours and the limit with the Malvar–He–Cutler demosaic instead of Ψ for
 ``limit_mhc``       the output (:mod:`spikeref.demosaic`, ``ReconstructParams(demosaic="mhc")``)
+``ours_charge``     beyond Eq. 4: ours on the windows' timing-aware charge (:mod:`spikeref.charge`,
+                    ``ReconstructParams(accumulate="charge")``) with the bundled ``b2u_w16_charge``
+                    (a plain callable given as the denoiser is used as it is)
 ==================  ==============================================================================
 
 The true-flow rungs need a motion model (:meth:`SceneContent.true_flow`); the fan has none and
@@ -47,13 +50,13 @@ __all__ = ["RUNGS", "RUNG_LABELS", "LadderSetting", "binomial_weights", "true_fl
 
 #: The rungs, bottom to top.
 RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
-         "true_flow_d", "limit", "ours_mhc", "limit_mhc")
+         "true_flow_d", "limit", "ours_mhc", "limit_mhc", "ours_charge")
 RUNG_LABELS = {
     "tfp": "TFP(W)", "bm3d": "BM3D on W", "nlm": "NLM on W", "net": "D on W", "tfp_support": "TFP(support)",
     "no_align": "no alignment", "no_denoiser": "no denoiser", "paper": "paper's Fig. 3(b)", "ours": "ours",
     "true_flow": "true flow",
     "true_flow_d": "true flow + D", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
-    "limit_mhc": "limit, MHC demosaic",
+    "limit_mhc": "limit, MHC demosaic", "ours_charge": "ours, window charge",
 }
 #: Border left out of the end-point error, full-resolution pixels.
 EPE_BORDER = 8
@@ -245,6 +248,11 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                     epe.setdefault(level, []).append(_epe(f, true, vis))
     if "ours_mhc" in rungs:
         out["ours_mhc"] = run(replace(base, demosaic="mhc"), denoiser, False)[0]
+    if "ours_charge" in rungs:
+        from spikeref.denoise.denoiser import Denoiser
+
+        charge_den = Denoiser.load("b2u_w16_charge") if isinstance(denoiser, Denoiser) else denoiser
+        out["ours_charge"] = run(replace(base, accumulate="charge"), charge_den, False)[0]
     if "no_align" in rungs:
         out["no_align"] = run(replace(base, align=False), denoiser, False)[0]
     if "no_denoiser" in rungs:
