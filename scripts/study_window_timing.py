@@ -16,7 +16,7 @@ time ``[r, r + 1)``, so a threshold crossing seen at readout ``t_k`` is placed a
     ``n / W`` (Eq. 4, :func:`spikeref.accumulate.accumulate`).
 ``span``
     Planes inside the window only: ``(n − 1) / (t_n − t_1)`` when ``n ≥ 2`` spikes, else
-    ``n / W``.  Equivalent to the residual-charge form below with both edge phases extrapolated
+    ``n / W``.  The same as the residual-charge form below with both edge phases extrapolated
     from the window's own first and last spike at the rate ``(n − 1)/(t_n − t_1)``.
 ``lsq``
     Planes inside the window only: ``1 / slope`` of the least-squares line ``t_k ≈ a + k / p``

@@ -598,17 +598,21 @@ def _gradient(img, gy, gx):
 
 
 @njit(inline="always")
+def _bilinear_cell(sy, sx, h, w):
+    """The bilinear cell of a position ``(sy, sx)`` already clamped to the ``h × w`` grid:
+    ``(y0, x0, y1, x1, fy, fx)``, the far corner clamped too (a position on the last row or column)."""
+    y0 = min(int(np.floor(sy)), h - 1)
+    x0 = min(int(np.floor(sx)), w - 1)
+    return y0, x0, min(y0 + 1, h - 1), min(x0 + 1, w - 1), sy - y0, sx - x0
+
+
+@njit(inline="always")
 def _bilinear3(img, gy, gx, y, x):
     """Bilinear samples of ``img`` and its two gradient images at ``(y, x)``, clamped to the grid."""
     h, w = img.shape
     yc = min(max(y, 0.0), h - 1.0)
     xc = min(max(x, 0.0), w - 1.0)
-    y0 = min(int(np.floor(yc)), h - 1)
-    x0 = min(int(np.floor(xc)), w - 1)
-    y1 = min(y0 + 1, h - 1)
-    x1 = min(x0 + 1, w - 1)
-    fy = yc - y0
-    fx = xc - x0
+    y0, x0, y1, x1, fy, fx = _bilinear_cell(yc, xc, h, w)
     w00 = (1.0 - fy) * (1.0 - fx)
     w01 = (1.0 - fy) * fx
     w10 = fy * (1.0 - fx)
@@ -1014,12 +1018,7 @@ def _zero_test_terms(ref, alt, flow, noise, rho, d_out, var_out):
             ux = np.float64(flow[1, y, x])
             sy = min(max(y + uy, 0.0), h - 1.0)
             sx = min(max(x + ux, 0.0), w - 1.0)
-            y0 = min(int(np.floor(sy)), h - 1)
-            x0 = min(int(np.floor(sx)), w - 1)
-            y1 = min(y0 + 1, h - 1)
-            x1 = min(x0 + 1, w - 1)
-            fy = sy - y0
-            fx = sx - x0
+            y0, x0, y1, x1, fy, fx = _bilinear_cell(sy, sx, h, w)
             au = ((1.0 - fy) * ((1.0 - fx) * alt[y0, x0] + fx * alt[y0, x1])
                   + fy * ((1.0 - fx) * alt[y1, x0] + fx * alt[y1, x1]))
             r = np.float64(ref[y, x])
