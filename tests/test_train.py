@@ -239,3 +239,18 @@ def test_training_reads_no_ground_truth(tmp_path, monkeypatch):
                  "--steps", "2", "--batch", "1", "--patch", "32", "--checkpoint-every", "10", "--device", "cpu"])
     assert code == 0 and (tmp_path / "w.npz").is_file()
     assert set(read_keys) == {"spikes"}
+
+
+def test_charge_crops_are_the_window_charge_of_the_crop():
+    """accumulate="charge": a crop's image is spikeref.charge.window_charge of the crop's planes, from an
+    in-memory and from a packed stream alike; the count crops are the spike counts."""
+    from spikeref.charge import window_charge
+    from spikeref.io.dat import pack_planes
+
+    spikes = (np.random.default_rng(3).random((500, 72, 96)) < 0.2).astype(np.uint8)
+    want = window_charge(spikes[:, 4:36, 6:38], 10, start=250, count=1)[0]
+    for stream in (SpikeStream.from_array(spikes), SpikeStream.from_packed(pack_planes(spikes), 72, 96)):
+        got = tr.CropSampler([stream], 16, 5, 200, accumulate="charge")._counts(stream, 250, 10, 4, 6)
+        np.testing.assert_array_equal(got.numpy(), want)
+        counts = tr.CropSampler([stream], 16, 5, 200)._counts(stream, 250, 10, 4, 6)
+        np.testing.assert_array_equal(counts.numpy(), spikes[250:260, 4:36, 6:38].sum(0))

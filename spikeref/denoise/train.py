@@ -207,6 +207,19 @@ class CropSampler:
         lo = min(self.window_min, hi)
         return int(min(hi, max(lo, round(math.exp(rng.uniform(math.log(lo), math.log(hi + 0.5)))))))
 
+    def _packed_crop(self, stream, y0: int, x0: int, device):
+        """Where the crop ``[y0, y0+s) × [x0, x0+s)`` lies in a packed ``.dat`` plane: the byte range
+        ``[byte_lo, byte_hi)`` and, per crop pixel ``(s, s)``, its bit in those bytes (LSB first), stored rows
+        first — stored row r is image row H−1−r, pixel (r, c) is bit r·Wf + col_offset + c."""
+        s = 2 * self.patch
+        wf = stream.file_width
+        r_lo = stream.height - (y0 + s)  # stored rows r_lo .. r_lo+s-1 hold image rows y0+s-1 .. y0
+        bit_lo = r_lo * wf + stream.col_offset + x0
+        byte_lo = bit_lo // 8
+        byte_hi = ((r_lo + s - 1) * wf + stream.col_offset + x0 + s + 7) // 8
+        starts = torch.arange(s, device=device) * wf + (bit_lo - 8 * byte_lo)
+        return byte_lo, byte_hi, starts[:, None] + torch.arange(s, device=device)[None, :]
+
     def _charge(self, stream, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
         """The charge (:func:`spikeref.charge.window_charge`) of planes ``[t, t+w)`` over the crop."""
         from spikeref.charge import DEFAULT_MARGIN, window_charge
@@ -216,15 +229,9 @@ class CropSampler:
         if stream.array is not None:
             block = np.ascontiguousarray(stream.array[lo:hi, y0 : y0 + s, x0 : x0 + s], dtype=np.uint8)
         else:
-            h, wf = stream.height, stream.file_width
-            r_lo = h - (y0 + s)
-            bit_lo = r_lo * wf + stream.col_offset + x0
-            byte_lo = bit_lo // 8
-            byte_hi = ((r_lo + s - 1) * wf + stream.col_offset + x0 + s + 7) // 8
+            byte_lo, byte_hi, idx = self._packed_crop(stream, y0, x0, torch.device("cpu"))
             raw = torch.from_numpy(np.array(stream.packed[lo:hi, byte_lo:byte_hi]))
             bits = ((raw[..., None] >> self._shifts.cpu()) & 1).reshape(hi - lo, -1)  # LSB first
-            starts = torch.arange(s) * wf + (bit_lo - 8 * byte_lo)
-            idx = starts[:, None] + torch.arange(s)[None, :]
             block = np.ascontiguousarray(bits[:, idx].flip(1).numpy(), dtype=np.uint8)  # stored bottom-up
         charge = window_charge(block, w, start=t - lo, count=1, margin=DEFAULT_MARGIN)[0]
         return torch.from_numpy(charge).to(self.device)
@@ -237,17 +244,10 @@ class CropSampler:
         if stream.array is not None:
             block = np.ascontiguousarray(stream.array[t : t + w, y0 : y0 + s, x0 : x0 + s])
             return torch.from_numpy(block).to(self.device).sum(0, dtype=torch.int32)
-        # Packed .dat: stored row r is image row H-1-r; pixel (r, c) is bit r*Wf + col_offset + c, LSB first.
-        h, wf = stream.height, stream.file_width
-        r_lo = h - (y0 + s)  # stored rows r_lo .. r_lo+s-1 hold image rows y0+s-1 .. y0
-        bit_lo = r_lo * wf + stream.col_offset + x0
-        byte_lo = bit_lo // 8
-        byte_hi = ((r_lo + s - 1) * wf + stream.col_offset + x0 + s + 7) // 8
+        byte_lo, byte_hi, idx = self._packed_crop(stream, y0, x0, self.device)
         raw = torch.from_numpy(np.array(stream.packed[t : t + w, byte_lo:byte_hi])).to(self.device)
         bits = (raw[..., None] >> self._shifts) & 1  # (w, nbytes, 8), LSB first
         counts = bits.sum(0, dtype=torch.int32).reshape(-1)
-        starts = torch.arange(s, device=self.device) * wf + (bit_lo - 8 * byte_lo)
-        idx = starts[:, None] + torch.arange(s, device=self.device)[None, :]
         return counts[idx].flip(0)  # stored order is bottom-up
 
     def sample(self, rng: np.random.Generator, batch: int, with_windows: bool = False):
