@@ -44,10 +44,13 @@ import numpy as np
 from spikeref._jit import njit, prange
 from spikeref.stream import as_stream
 
-__all__ = ["window_charge", "charge_rates", "DEFAULT_MARGIN"]
+__all__ = ["window_charge", "charge_rates", "DEFAULT_MARGIN", "WINDOWS_PER_CALL"]
 
 #: How far (readouts) from a window boundary its bracketing spikes are looked for (module docstring).
 DEFAULT_MARGIN = 200
+#: Windows a streaming caller asks for in one call: each call reads its windows' planes plus a margin on
+#: either side, so asking one window at a time would read ``W + 2M`` planes per window.
+WINDOWS_PER_CALL = 16
 
 
 @njit(parallel=True)

@@ -139,6 +139,12 @@ def _check_seed(value) -> None:
 CHARGE_WEIGHTS = "b2u_w16_charge"
 
 
+def _charge_weights_by_default(args) -> None:
+    """``--accumulate charge`` without ``--weights``: the bundled network trained on the charge's noise."""
+    if args.accumulate == "charge" and args.weights is None:
+        args.weights = CHARGE_WEIGHTS
+
+
 def _load_denoiser(weights, **kw):
     """``Denoiser.load`` with a damaged weights file reported as one line (before any output is opened)."""
     import zipfile
@@ -346,8 +352,7 @@ def cmd_denoise(args) -> int:
                        f"(the stream has {len(stream)} planes)")
     if args.frames is not None:
         total = min(total, args.frames)
-    if args.accumulate == "charge" and args.weights is None:
-        args.weights = CHARGE_WEIGHTS  # a network trained on the charge's noise, not the count's
+    _charge_weights_by_default(args)
     den = _load_denoiser(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink, guard=args.guard)
     frames = den.frames(stream, args.window, start=args.start, count=args.frames, accumulate=args.accumulate)
     first = next(frames, None)  # the generator's own checks (and the first frame) before any output is opened
@@ -432,8 +437,7 @@ def cmd_reconstruct(args) -> int:
         raise CliError(f"--paper is --preset paper; give one of --paper and --preset {args.preset}")
     preset = "paper" if args.paper else (args.preset or "default")
     args.paper = preset == "paper"
-    if args.accumulate == "charge" and args.weights is None:
-        args.weights = CHARGE_WEIGHTS  # a network trained on the charge's noise, not the count's
+    _charge_weights_by_default(args)
     chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp),
                                 ("demosaic", args.demosaic), ("accumulate", args.accumulate)) if v is not None}
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,

@@ -110,8 +110,6 @@ DEFAULT_SMOOTHNESS = 300.0
 DEFAULT_ZERO_TEST = 2.0
 #: What a window contributes (:class:`ReconstructParams`): Eq. 4's count or the timing-aware charge.
 ACCUMULATE = ("count", "charge")
-#: Windows whose charge :mod:`spikeref.charge` computes in one pass (their margins read once).
-CHARGE_BLOCK = 16
 #: How the output frame is made from the step flows (:class:`ReconstructParams`).
 WARPS = ("progressive", "composed", "chained")
 #: σ of the Gaussian of ``flow_frames="smoothed"``, in Bayer-plane pixels.  Chosen on the
@@ -470,7 +468,7 @@ class Reconstructor:
             short_window = self.params.window
 
             def run(planes, exposure, final, short=None):
-                more = {"short": short, "short_window": short_window} if short is not None and final else {}
+                more = {} if short is None else {"short": short, "short_window": short_window}
                 return denoiser(planes, mode, window=exposure, guard=None if final else "off", **extra, **more)
 
             return run
@@ -579,12 +577,13 @@ class _State:
         return self.counts[k]
 
     def _charge_block(self, k: int) -> None:
-        """The charges (:func:`spikeref.charge.window_charge`) of windows ``k … k + CHARGE_BLOCK − 1``
-        (those that fit), float32 Bayer planes; each window's value does not depend on the block."""
-        from spikeref.charge import window_charge
+        """The charges (:func:`spikeref.charge.window_charge`) of windows ``k …`` (up to
+        :data:`~spikeref.charge.WINDOWS_PER_CALL` that fit), float32 Bayer planes; each window's value
+        does not depend on the block."""
+        from spikeref.charge import WINDOWS_PER_CALL, window_charge
 
         w = self.p.window
-        count = min(CHARGE_BLOCK, len(self.stream) // w - k)
+        count = min(WINDOWS_PER_CALL, len(self.stream) // w - k)
         charge = window_charge(self.stream, w, start=k * w, count=count)
         for i in range(count):
             self.counts.setdefault(k + i, bayer_planes(charge[i]))

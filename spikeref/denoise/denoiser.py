@@ -205,7 +205,7 @@ class Denoiser:
         """
         from spikeref.accumulate import accumulate as eq4
         from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
-        from spikeref.charge import charge_rates
+        from spikeref.charge import WINDOWS_PER_CALL, charge_rates
 
         if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
             raise ValueError(f"window must be a positive number of planes; got {window!r}")
@@ -221,18 +221,17 @@ class Denoiser:
         if total < 1:
             raise ValueError(f"window={window} from plane {start} is longer than the stream ({len(stream)} planes)")
         count = total if count is None else min(int(count), total)
+        measure = charge_rates if accumulate == "charge" else eq4
+        block, block_k = [], 0  # WINDOWS_PER_CALL windows at a time: a charge's margins are read once per call
         for k in range(count):
             first = start + k * window
-            if accumulate == "charge":
-                rates = charge_rates(stream, window, start=first, count=1)[0]
-            else:
-                rates = eq4(stream, window, start=first, count=1)[0]
+            if k - block_k >= len(block):
+                block_k = k
+                block = measure(stream, window, start=first, count=min(WINDOWS_PER_CALL, count - k))
+            rates = block[k - block_k]
             extra = {}
             if self.guard == "sure" and window > NOISE_WINDOW:
-                if accumulate == "charge":
-                    short = charge_rates(stream, NOISE_WINDOW, start=first, count=1)[0]
-                else:
-                    short = eq4(stream, NOISE_WINDOW, start=first, count=1)[0]
+                short = measure(stream, NOISE_WINDOW, start=first, count=1)[0]
                 extra = {"short": bayer_planes(short), "short_window": NOISE_WINDOW}
             clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window, accumulate=accumulate, **extra))
             yield k, (demosaic_bilinear(clean, stream.cfa) if stream.cfa else clean)
