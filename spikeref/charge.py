@@ -44,7 +44,10 @@ import numpy as np
 from spikeref._jit import njit, prange
 from spikeref.stream import as_stream
 
-__all__ = ["window_charge", "charge_rates", "DEFAULT_MARGIN", "WINDOWS_PER_CALL"]
+__all__ = ["window_charge", "charge_rates", "DEFAULT_MARGIN", "WINDOWS_PER_CALL", "ACCUMULATE"]
+
+#: What a window can contribute, wherever a caller chooses (``accumulate=``): Eq. 4's count or this charge.
+ACCUMULATE = ("count", "charge")
 
 #: How far (readouts) from a window boundary its bracketing spikes are looked for (module docstring).
 DEFAULT_MARGIN = 200

@@ -84,6 +84,7 @@ import numpy as np
 from spikeref.align import AlignParams, align, luma
 from spikeref.bayer import bayer_mosaic, bayer_planes
 from spikeref.stream import SpikeStream
+from spikeref.charge import ACCUMULATE
 from spikeref.warp import warp_average, warp_spike_windows
 
 __all__ = ["ReconstructParams", "ReconstructedFrame", "Reconstructor", "reconstruct", "frame_range",
@@ -108,8 +109,6 @@ DEFAULT_SMOOTHNESS = 300.0
 #: ``AlignParams.zero_test`` of the default reconstruction (not in the paper or HDR+): the per-pixel
 #: zero-motion test at 2 standard deviations, chosen among 0, 1, 2, 3 (``scripts/study_align_lk.py``).
 DEFAULT_ZERO_TEST = 2.0
-#: What a window contributes (:class:`ReconstructParams`): Eq. 4's count or the timing-aware charge.
-ACCUMULATE = ("count", "charge")
 #: How the output frame is made from the step flows (:class:`ReconstructParams`).
 WARPS = ("progressive", "composed", "chained")
 #: σ of the Gaussian of ``flow_frames="smoothed"``, in Bayer-plane pixels.  Chosen on the

@@ -16,6 +16,7 @@ from typing import Iterator
 
 import numpy as np
 
+from spikeref.charge import ACCUMULATE
 from spikeref.denoise.blindspot import MODES, _check_cell, blindspot_denoise
 from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, carried_excess_variance, sure_blend
 from spikeref.denoise.shrinkage import shrink_residual
@@ -213,7 +214,7 @@ class Denoiser:
             raise ValueError(f"start must be a plane index ≥ 0; got {start!r}")
         if count is not None and (isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1):
             raise ValueError(f"count must be a positive number of frames (or None for all); got {count!r}")
-        if accumulate not in ("count", "charge"):
+        if accumulate not in ACCUMULATE:
             raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
         if stream.height % 2 or stream.width % 2:
             raise ValueError(f"the stream must have even height and width; got {stream.height}×{stream.width}")

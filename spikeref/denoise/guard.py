@@ -61,7 +61,7 @@ Interpretations (the noise of spike counts):
   (measured: ``docs/results.md``).
 * ``accumulate="charge"`` (the rates are :mod:`spikeref.charge`'s): the floor is the charge's,
   ``min(q, p²/(6W²))`` (:func:`quantisation_variance`), in both the cap and the per-pixel floor.
-  The probe's step is ``ε = 0.05 · √(mean over the plane of σ²)`` (:func:`probe_step` of the root mean
+* The probe's step is ``ε = 0.05 · √(mean over the plane of σ²)`` (:func:`probe_step` of the root mean
   variance); where ``σ² = 0`` everywhere (no noise at all) ``α = 0``: nothing is removed.
 
 The literal oracle is :func:`spikeref.oracles.guard.sure_blend_oracle`.
@@ -71,6 +71,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from spikeref.charge import ACCUMULATE
 from spikeref.denoise.blindspot import _check_image
 from spikeref.noise_level import immerkaer_response
 
@@ -214,7 +215,7 @@ def quantisation_variance(rates, window: float, accumulate: str = "count") -> np
     fraction ``p`` of the interval, so the ±1 of the count shrinks by about ``p`` (the count's floor
     where that is lower).
     """
-    if accumulate not in ("count", "charge"):
+    if accumulate not in ACCUMULATE:
         raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
     p = np.clip(np.asarray(rates, dtype=np.float64), 0.0, 1.0)
     w = float(window)
@@ -228,7 +229,7 @@ def carried_excess_variance(short, short_window: float, window: float, accumulat
     """The noise variance above the quantisation floor, measured on a short window, carried to ``window``.
 
     ``e = max(0, σ_c(short)² − mean q(short, W₀)) · W₀ / W`` per plane, with ``σ_c`` the plane
-    estimate :func:`noise_sigma`, ``q`` the count's :func:`quantisation_variance` and ``W₀ =
+    estimate :func:`noise_sigma`, ``q`` the floor :func:`quantisation_variance` (``accumulate``'s) and ``W₀ =
     short_window``: the part of the short window's noise that the floor does not explain, taken
     to fall as ``1/W`` (shot noise, dark current, spurious spikes; module docstring).
 
@@ -295,7 +296,7 @@ def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
         raise ValueError(f"sigma must be finite and ≥ 0; got {sigma!r}")
     if window is not None and (isinstance(window, bool) or not np.isfinite(window) or window <= 0):
         raise ValueError(f"window must be a positive number of planes; got {window!r}")
-    if accumulate not in ("count", "charge"):
+    if accumulate not in ACCUMULATE:
         raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
     if carried is not None:
         if window is None:

@@ -54,6 +54,7 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
+from spikeref.charge import ACCUMULATE
 from spikeref.denoise.blindspot import FILL_KERNEL, cell_masks
 from spikeref.denoise.revisible import lambda_schedule, revisible_loss_torch
 from spikeref.denoise.torch_unet import TorchUNet, to_numpy_unet
@@ -148,7 +149,7 @@ class TrainConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a finite number ≥ 0; got {v!r}")
-        if self.accumulate not in ("count", "charge"):
+        if self.accumulate not in ACCUMULATE:
             raise ValueError(f"accumulate must be count or charge; got {self.accumulate!r}")
         if self.masks_per_step > self.cell**2:
             raise ValueError(f"masks_per_step ({self.masks_per_step}) must be ≤ cell² = {self.cell**2}")
@@ -180,7 +181,7 @@ class CropSampler:
 
     def __init__(self, streams, patch: int, window_min: int, window_max: int, device="cpu", domain="rate",
                  accumulate: str = "count"):
-        if accumulate not in ("count", "charge"):
+        if accumulate not in ACCUMULATE:
             raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
         self.accumulate = accumulate
         if domain not in INPUT_DOMAINS:
