@@ -101,13 +101,13 @@ def real_cases(windows, short: int | None = None, accumulate: str = "count"):
     for w in windows:
         for start in REAL_STARTS:
             if start + w <= 200:
-                if accumulate == "charge":  # its margin reaches at most 200 planes past the window
-                    rate = charge_rates(spikes[: start + w + 200], w, start=start, count=1)[0]
+                if accumulate == "charge":
+                    rate = charge_rates(spikes, w, start=start, count=1)[0]
                 else:
                     rate = spikes[start : start + w].mean(axis=0, dtype=np.float64).astype(np.float32)
                 case = ("real_outdoor", w, bayer_planes(rate), truth, None)
                 if short is not None:
-                    first = (charge_rates(spikes[: start + short + 200], short, start=start, count=1)[0]
+                    first = (charge_rates(spikes, short, start=start, count=1)[0]
                              if accumulate == "charge"
                              else spikes[start : start + short].mean(axis=0, dtype=np.float64).astype(np.float32))
                     case += (bayer_planes(first),)
