@@ -59,33 +59,53 @@ WINDOWS_PER_CALL = 16
 @njit(parallel=True)
 def _window_charge(planes, lo, start, window, count, margin, out):
     # planes (T, H, W) uint8 holding readouts [lo, lo + T) of the stream; out (count, H, W) float32:
-    # out[k] = n_k + φ(b_{k+1}) − φ(b_k), b_j = start + j·window (absolute readout numbers).
-    # One pass over the readouts, a row at a time: at each spike of a pixel, the boundaries crossed
-    # since its previous spike get their φ (when both spikes lie within the margin).
+    # out[k] = n_k + φ(b_{k+1}) − φ(b_k), b_j = start + j·window.  Times are relative to lo (int32).
+    # Per row, two branch-free sweeps over the readouts: forwards, the last spike before each
+    # boundary (and the counts); backwards, the first spike at or after it.  A missing spike is a
+    # sentinel that fails the margin test, so φ falls back to ½.
+    n_t = planes.shape[0]
     h = planes.shape[1]
     w = planes.shape[2]
-    t_end = lo + planes.shape[0]
+    b0 = start - lo
+    far = np.int32(1 << 30)
     for y in prange(h):
-        prev = np.full(w, -1, dtype=np.int64)
-        phi = np.full((count + 1, w), 0.5, dtype=np.float64)
-        n = np.zeros((count, w), dtype=np.int64)
-        for t in range(lo, t_end):
-            row = planes[t - lo, y]
-            k = (t - start) // window if t >= start else -1
-            inside = 0 <= k < count
-            last_j = min((t - start) // window, count) if t >= start else -1  # last boundary ≤ t
+        last = np.full(w, -far, dtype=np.int32)
+        before = np.empty((count + 1, w), dtype=np.int32)
+        after = np.full((count + 1, w), far, dtype=np.int32)
+        n = np.zeros((count, w), dtype=np.int32)
+        for t in range(n_t):
+            r = t - b0
+            if r >= 0 and r % window == 0 and r // window <= count:
+                before[r // window, :] = last
+            row = planes[t, y]
+            if 0 <= r < count * window:
+                nk = n[r // window]
+                for x in range(w):
+                    nk[x] += row[x]
+            tt = np.int32(t)
             for x in range(w):
-                if row[x]:
-                    s = prev[x]
-                    if s >= 0 and last_j >= 0:
-                        first_j = (s - start) // window + 1 if s >= start else 0  # first boundary > s
-                        for j in range(first_j, last_j + 1):
-                            b = start + j * window
-                            if s >= b - margin and t < b + margin:
-                                phi[j, x] = (b - s - 0.5) / (t - s)
-                    prev[x] = t
-                    if inside:
-                        n[k, x] += 1
+                last[x] = tt if row[x] else last[x]
+        if b0 + count * window == n_t:  # the last boundary is the stream's end: no spike after it
+            before[count, :] = last
+        nxt = np.full(w, far, dtype=np.int32)
+        for t in range(n_t - 1, -1, -1):
+            row = planes[t, y]
+            tt = np.int32(t)
+            for x in range(w):
+                nxt[x] = tt if row[x] else nxt[x]
+            r = t - b0
+            if r >= 0 and r % window == 0 and r // window <= count:
+                after[r // window, :] = nxt
+        phi = np.empty((count + 1, w), dtype=np.float64)
+        for j in range(count + 1):
+            b = b0 + j * window
+            for x in range(w):
+                s = before[j, x]
+                e = after[j, x]
+                if s >= b - margin and e < b + margin:
+                    phi[j, x] = (b - s - 0.5) / (e - s)
+                else:
+                    phi[j, x] = 0.5
         for k in range(count):
             for x in range(w):
                 c = n[k, x] + phi[k + 1, x] - phi[k, x]
