@@ -69,7 +69,8 @@ def main() -> None:
                             "--seed", str(SEED)], check=True)
         stream = open_spike_file(dat)
         cfa = stream.cfa
-        params = ReconstructParams(window=W, K=K, L=L, mode=args.mode, flow_frames=args.flow_frames)
+        params = ReconstructParams(window=W, K=K, L=L, mode=args.mode, flow_frames=args.flow_frames,
+                                   accumulate="count")  # the count network by default
         rec = Reconstructor(stream, params, den)
         avail = rec.frames_available
         ks = np.linspace(max(avail.start, 6), avail.stop - 6, args.frames).round().astype(int)

@@ -55,7 +55,7 @@ def real_no_denoiser(kw: dict) -> float:
     truth = spikes[300:500].mean(axis=0, dtype=np.float64)[8:-8, 8:-8]
     stream = SpikeStream.from_array(spikes[:120])
     out = []
-    for f in Reconstructor(stream, ReconstructParams(**kw), identity).frames(3, 9):
+    for f in Reconstructor(stream, ReconstructParams(**{"accumulate": "count", **kw}), identity).frames(3, 9):
         out.append(psnr_after_gain(truth, np.asarray(f.rgb, np.float64)[8:-8, 8:-8], float(truth.max())))
     return float(np.mean(out))
 
@@ -78,7 +78,8 @@ def main() -> None:
         kw = variants()[name]
         t0 = time.perf_counter()
         rungs = ("ours", "no_align") if args.no_align else ("ours",)
-        res = run_ladder(scenes, denoiser=den, rungs=rungs, peers=(), progress=False, params=kw)
+        res = run_ladder(scenes, denoiser=den, rungs=rungs, peers=(), progress=False,
+                         params={"accumulate": "count", **kw})
         psnr = {(r["scene"], r["rung"]): r["psnr"] for r in res["rows"]}
         epe = {}
         for e in res["epe"]:

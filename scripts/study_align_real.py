@@ -90,7 +90,7 @@ def score_real(truth: np.ndarray, image: np.ndarray) -> float:
 def run_real(stream, truth, kw: dict, denoiser, keep_flows: bool = False):
     from spikeref.pipeline import ReconstructParams, Reconstructor
 
-    rec = Reconstructor(stream, ReconstructParams(**kw), denoiser)
+    rec = Reconstructor(stream, ReconstructParams(**{"accumulate": "count", **kw}), denoiser)
     scores, mags = [], {}
     for frame in rec.frames(FRAMES.start, FRAMES.stop, keep_steps=keep_flows):
         scores.append(score_real(truth, frame.rgb))
@@ -126,7 +126,7 @@ def run_scene(sc, centres, kw: dict, denoiser, epe: bool):
     from spikeref.pipeline import ReconstructParams, Reconstructor
     from spikeref.simulate.motion import plane_flow
 
-    params = ReconstructParams(**kw)
+    params = ReconstructParams(**{"accumulate": "count", **kw})
     w = params.window
     offset = (centres[0] - w // 2) % w
     view = sc.stream.slice(offset)

@@ -37,7 +37,7 @@ def part1(den) -> None:
     configs["(16, 16, 8), no sub-pixel"] = AlignParams(tile_by_step=(16, 16, 8), subpixel=False)
     configs["(16, 16, 8), radius 0 finest"] = AlignParams(tile_by_step=(16, 16, 8), search_radius=(0, 4, 4, 4))
     for name, ap in configs.items():
-        rec = Reconstructor(stream, ReconstructParams(align_params=ap), den)
+        rec = Reconstructor(stream, ReconstructParams(align_params=ap, accumulate="count"), den)
         epe, scores = {}, []
         for k in (20, 60, 100, 140):
             (f,) = list(rec.frames(k, k + 1, keep_steps=True))
@@ -65,7 +65,8 @@ def part2(den) -> None:
         refs = [sc.reference(t) for t in centres]
         for s in settings:
             for t in TILES[:4]:
-                frames, _ = run_setting(s, sc.stream, centres, den, align_params=AlignParams(tile_by_step=t))
+                frames, _ = run_setting(s, sc.stream, centres, den, align_params=AlignParams(tile_by_step=t),
+                                           accumulate="count")
                 res.setdefault((s.name, t), {})[sc.key] = np.mean(
                     [_score(r, f)["psnr"] for r, f in zip(refs, frames, strict=True)])
         sc.stream = None

@@ -41,7 +41,7 @@ def main() -> None:
                     if sigma is not None:
                         pipeline.FLOW_SMOOTHING_SIGMA = sigma
                     setting = Setting("ours", w, K=k, L=level, flow_frames="denoised" if sigma is None else "smoothed")
-                    frames, timing = run_setting(setting, sc.stream, centres, den)
+                    frames, timing = run_setting(setting, sc.stream, centres, den, accumulate="count")
                     psnr = float(np.mean([_score(r, f)["psnr"] for r, f in zip(refs, frames, strict=True)]))
                     scores[(w, k, level, name, sc.key)] = (psnr, timing["seconds_per_frame"])
                     print(f"{sc.key:12s} W={w} K={k} L={level} {name:16s} {psnr:6.2f} dB "

@@ -135,14 +135,12 @@ def _check_seed(value) -> None:
     _check_int(value, "--seed", 0, "a whole number ≥ 0")
 
 
-#: The bundled network of ``--accumulate charge`` when no ``--weights`` are given (trained on window charges).
-CHARGE_WEIGHTS = "b2u_w16_charge"
+def _bundled_weights_by_default(args, accumulate: str) -> None:
+    """Without ``--weights``: the bundled network trained on what the windows give (count or charge)."""
+    from spikeref.denoise.denoiser import BUNDLED_FOR
 
-
-def _charge_weights_by_default(args) -> None:
-    """``--accumulate charge`` without ``--weights``: the bundled network trained on the charge's noise."""
-    if args.accumulate == "charge" and args.weights is None:
-        args.weights = CHARGE_WEIGHTS
+    if args.weights is None:
+        args.weights = BUNDLED_FOR[accumulate]
 
 
 def _load_denoiser(weights, **kw):
@@ -352,7 +350,7 @@ def cmd_denoise(args) -> int:
                        f"(the stream has {len(stream)} planes)")
     if args.frames is not None:
         total = min(total, args.frames)
-    _charge_weights_by_default(args)
+    _bundled_weights_by_default(args, args.accumulate)
     den = _load_denoiser(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink, guard=args.guard)
     frames = den.frames(stream, args.window, start=args.start, count=args.frames, accumulate=args.accumulate)
     first = next(frames, None)  # the generator's own checks (and the first frame) before any output is opened
@@ -437,11 +435,11 @@ def cmd_reconstruct(args) -> int:
         raise CliError(f"--paper is --preset paper; give one of --paper and --preset {args.preset}")
     preset = "paper" if args.paper else (args.preset or "default")
     args.paper = preset == "paper"
-    _charge_weights_by_default(args)
     chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp),
                                 ("demosaic", args.demosaic), ("accumulate", args.accumulate)) if v is not None}
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,
                                       align=not args.no_align, **chosen)
+    _bundled_weights_by_default(args, params.accumulate)
     _check_float(args.fps, "--fps")
     _check_video(video)
     _check_output_dir(exr_dir, "--exr-dir")
@@ -468,11 +466,12 @@ def cmd_reconstruct(args) -> int:
     fps_out = stream.rate_hz / args.window
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
           f" → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
+          f"{'window charges' if params.accumulate == 'charge' else 'Eq. 4 counts'}, "
           f"{args.mode}{', no alignment' if args.no_align else ''}"
           f"{', the paper' + chr(39) + 's procedure' if args.paper else ''}"
           f"{', the fast preset' if preset == 'fast' else ''}"
           f"{', flow on ' + params.flow_frames + ' frames, ' + params.warp + ' warp' if not args.no_align else ''}"
-          f", guard {guard})"
+          f", guard {guard}, weights {Path(str(args.weights)).stem})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
     written = len(done)  # whole EXR frames of a:b in exr_dir, for the line of an interrupted or failed run
     t_loop = time.perf_counter()
@@ -591,6 +590,10 @@ def cmd_bench(args) -> int:
     _check_seed(args.seed)
     out = args.out
     _check_output_dir(out, "--out")
+    if args.weights is None:  # the bundled network for what the method's windows give by default
+        from spikeref.pipeline import ReconstructParams
+
+        _bundled_weights_by_default(args, ReconstructParams().accumulate)
     den = _load_denoiser(args.weights) if any(s.method == "ours" for s in settings) else None
     _writable_dir(out, "--out")  # the last check, and the first thing made: every argument is good
     print(f"bench v{BENCH_VERSION}: {len(settings)} settings × {len(scenes)} scenes, {grid.frames} scored frames "
@@ -655,7 +658,8 @@ def _cmd_ladder(args) -> int:
     _check_seed(args.seed)
     out = args.out
     _check_output_dir(out, "--out")
-    den = _load_denoiser(args.weights)
+    # without --weights each rung loads the bundled network for what its windows give (count or charge)
+    den = _load_denoiser(args.weights) if args.weights is not None else None
     _writable_dir(out, "--out")  # the last check, and the first thing made: every argument is good
     print(f"bench v{BENCH_VERSION} ladder: {len(settings)} setting(s) × {len(scenes)} scenes, {frames} scored frames "
           f"each → {out}", file=sys.stderr)
@@ -941,7 +945,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="what each window gives: count (default; Eq. 4, its spikes / W) or charge (the charge its "
                         "pixels integrated, read from the spike times up to 200 readouts around the window's edges; "
                         "not in the paper; spikeref.charge); without --weights it uses the bundled b2u_w16_charge, "
-                        "trained on window charges")
+                        "trained on window charges (b2u_w16 with counts)")
     p.add_argument("--no-shrink", action="store_true",
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
@@ -955,7 +959,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("reconstruct", help="colour HDR video by progressive warping (Eq. 13-15) to MP4 + EXR",
                        description="Reconstruct linear colour HDR frames R_L = Ψ[D(I_L)] (§4.2, Fig. 3b): windows "
-                                   "of W planes are accumulated (Eq. 4), denoised (§4.1) and aligned (HDR+ tiles); "
+                                   "of W planes are accumulated (by default their charge, read from the spike times "
+                                   "around each window; Eq. 4's count with --accumulate count or --paper), denoised "
+                                   "(§4.1) and aligned (HDR+ tiles); "
                                    "step 1 warps the spike planes of K windows (Eq. 14), steps 2…L warp K frames of "
                                    "the previous step (Eq. 15). One frame per window: 20000/W FPS; frame k is "
                                    "centred on window k (planes kW…(k+1)W) and needs ((K−1)L+1)·W planes around "
@@ -1005,14 +1011,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--demosaic", choices=["bilinear", "mhc"], default=None,
                    help="the output frame's demosaic: bilinear (default; the paper's Ψ, Eq. 13) or mhc "
                         "(Malvar-He-Cutler 5x5 filters: sharper on photographs, not in the paper; docs/results.md)")
-    p.add_argument("--accumulate", choices=["count", "charge"], default=None,
-                   help="what each window contributes: count (default; Eq. 4, its spikes) or charge (the charge its "
-                        "pixels integrated, read from the spike times up to 200 readouts around the window's edges; "
-                        "the count's ±1 quantisation at the edges falls by about the firing rate; not in the paper; "
-                        "spikeref.charge, docs/results.md); without --weights it uses the bundled b2u_w16_charge")
+    p.add_argument("--accumulate", choices=["charge", "count"], default=None,
+                   help="what each window contributes: charge (default; the charge its pixels integrated, read from "
+                        "the spike times up to 200 readouts around the window's edges: the count's ±1 quantisation "
+                        "at the edges falls by about the firing rate; not in the paper; spikeref.charge, "
+                        "docs/results.md) or count (Eq. 4, its spikes; the paper's, and --paper's)")
     p.add_argument("--weights", type=Path, default=None,
-                   help="denoiser weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little "
-                        "sharper)")
+                   help="denoiser weights .npz, or a bundled name: b2u_w16_charge (the default with charges), "
+                        "b2u_w16 (the default with counts) or b2u_w32 (trained on rates; slower)")
     p.add_argument("--frames", default=None, help="frame numbers a:b to reconstruct (b excluded; default all); "
                    "chunks give exactly the frames of a full run")
     p.add_argument("--resume", action="store_true",

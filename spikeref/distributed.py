@@ -3,8 +3,11 @@
 The output frame range is cut into chunks of consecutive frames.  Chunk ``[a, b)`` needs the
 windows ``a − reach … b − 1 + reach`` (``reach = L (K − 1)/2``), i.e. the planes
 ``[(a − reach) W, (b + reach) W)``: neighbouring chunks overlap by ``2·reach·W =
-((K − 1) L + 1) W − W`` planes.  Each task opens the memory-mapped file itself, slices it to
-those planes (nothing else is read), reconstructs its frames and writes them as EXR files
+((K − 1) L + 1) W − W`` planes.  With window charges (``accumulate="charge"``, the default) a
+window also reads the spike times up to :data:`spikeref.charge.DEFAULT_MARGIN` readouts beyond
+it, so each chunk reads that margin (rounded up to whole windows) more on either side.  Each
+task opens the memory-mapped file itself, slices it to those planes (nothing else is read),
+reconstructs its frames and writes them as EXR files
 straight into the output folder (atomic writes: a killed worker leaves no partial frame).
 Only a small summary travels back through the scheduler — never a frame.
 
@@ -67,22 +70,27 @@ def plan_chunks(frames: range, params: ReconstructParams, chunk_frames: int) -> 
     if not isinstance(frames, range) or frames.step != 1:
         raise TypeError(f"frames must be a range with step 1; got {frames!r}")
     w, reach = params.window, params.reach
+    margin = 0
+    if params.accumulate == "charge":  # the spike times around each window's edges, in whole windows
+        from spikeref.charge import DEFAULT_MARGIN
+
+        margin = -(-DEFAULT_MARGIN // w) * w
     out = []
     for i, a in enumerate(range(frames.start, frames.stop, chunk_frames)):
         b = min(a + chunk_frames, frames.stop)
-        out.append(Chunk(i, a, b, (a - reach) * w, (b + reach) * w))
+        out.append(Chunk(i, a, b, max(0, (a - reach) * w - margin), (b + reach) * w + margin))
     return out
 
 
 _DENOISERS: dict = {}
 
 
-def _denoiser(weights, mode):
-    key = (str(weights) if weights is not None else None, mode)
+def _denoiser(weights, mode, accumulate="count"):
+    key = (str(weights) if weights is not None else None, mode, accumulate)
     if key not in _DENOISERS:  # one load per worker process
-        from spikeref.denoise.denoiser import Denoiser
+        from spikeref.denoise.denoiser import Denoiser, bundled_weights
 
-        _DENOISERS[key] = Denoiser.load(weights, mode=mode)
+        _DENOISERS[key] = Denoiser.load(weights if weights is not None else bundled_weights(accumulate), mode=mode)
     return _DENOISERS[key]
 
 
@@ -148,16 +156,17 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     written = 0
     if todo:
         stream = open_spike_file(path, **open_kwargs)
-        view = stream.slice(chunk.first_plane, chunk.stop_plane)
+        stop_plane = min(chunk.stop_plane, len(stream))  # a charge's margin may reach past the end
+        view = stream.slice(chunk.first_plane, stop_plane)
         shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
-        rec = Reconstructor(view, params, _denoiser(weights, params.mode))
+        rec = Reconstructor(view, params, _denoiser(weights, params.mode, params.accumulate))
         for a, b in todo:
             for frame in rec.frames(a - shift, b - shift):
                 write_exr(out / exr_name(frame.index + shift), frame.rgb, half=half)
                 written += 1
     return {"chunk": chunk.index, "frames": [chunk.start, chunk.stop], "written": written,
             "skipped": (chunk.stop - chunk.start) - written, "seconds": time.perf_counter() - t0,
-            "planes_read": (chunk.stop_plane - chunk.first_plane) if todo else 0,
+            "planes_read": (stop_plane - chunk.first_plane) if todo else 0,
             "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, "pid": os.getpid(),
             "threads": _numba_threads()}
 

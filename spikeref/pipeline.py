@@ -171,12 +171,14 @@ class ReconstructParams:
     demosaic : {"bilinear", "mhc"}
         The output frame's demosaic: Ψ (default, Eq. 13) or Malvar–He–Cutler
         (:mod:`spikeref.demosaic`; sharper, not in the paper).  The flows always use the 2×2 luma.
-    accumulate : {"count", "charge"}
-        What each window contributes: its spike count (Eq. 4, default) or the charge its pixels
-        integrated, read from the spike times around the window's edges (:mod:`spikeref.charge`,
-        not in the paper: the count's ±1 quantisation at the edges falls by about the firing
-        rate).  ``"charge"`` reads up to :data:`spikeref.charge.DEFAULT_MARGIN` readouts beyond
-        the support.
+    accumulate : {"charge", "count"}
+        What each window contributes: the charge its pixels integrated, read from the spike times
+        around the window's edges (default; :mod:`spikeref.charge`, not in the paper: the count's
+        ±1 quantisation at the edges falls by about the firing rate), or its spike count (Eq. 4,
+        the paper's; :meth:`paper`).  ``"charge"`` reads up to
+        :data:`spikeref.charge.DEFAULT_MARGIN` readouts beyond the support, and without a
+        denoiser named the pipeline loads the bundled network trained on charges
+        (:func:`spikeref.denoise.denoiser.bundled_weights`).
     """
 
     window: int = 10
@@ -188,7 +190,7 @@ class ReconstructParams:
     flow_frames: str = "smoothed"
     warp: str = "composed"
     demosaic: str = "bilinear"
-    accumulate: str = "count"
+    accumulate: str = "charge"
 
     def __post_init__(self):
         from spikeref.denoise.blindspot import MODES
@@ -231,11 +233,11 @@ class ReconstructParams:
 
     @classmethod
     def paper(cls, **kw) -> "ReconstructParams":
-        """The paper's procedure exactly (Fig. 3(b)): progressive warping, flows on the denoised
-        frames, the HDR+ search without the noise-aware preference.  Pair it with
+        """The paper's procedure exactly (Fig. 3(b)): Eq. 4's counts, progressive warping, flows on
+        the denoised frames, the HDR+ search without the noise-aware preference.  Pair it with
         ``Denoiser(guard="off", shrink=False)`` for the paper's ``D``; ``kw`` sets any other field.
         """
-        base = dict(warp="progressive", flow_frames="denoised", align_params=AlignParams())
+        base = dict(warp="progressive", flow_frames="denoised", align_params=AlignParams(), accumulate="count")
         base.update(kw)
         return cls(**base)
 
@@ -452,10 +454,10 @@ class Reconstructor:
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray]:
-        from spikeref.denoise.denoiser import Denoiser
+        from spikeref.denoise.denoiser import Denoiser, bundled_weights
 
-        if denoiser is None:
-            denoiser = Denoiser.load()
+        if denoiser is None:  # the bundled network trained on what the windows give
+            denoiser = Denoiser.load(bundled_weights(self.params.accumulate))
         if isinstance(denoiser, Denoiser):
             mode = self.params.mode
             denoiser = copy.copy(denoiser)  # the same weights and settings; its forward passes timed

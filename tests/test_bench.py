@@ -113,7 +113,8 @@ def test_every_method_is_scored_at_the_same_instant(rng):
     # the method with W = 20 and L = 0 and an identity denoiser is the TFP of the 20 planes centred on t:
     # its window grid is shifted by 5 planes so that a window is centred there
     for w in (10, 20):
-        frames, timing = run_setting(Setting("ours", w, L=0), stream, centres, denoiser=lambda p: p)
+        frames, timing = run_setting(Setting("ours", w, L=0), stream, centres, denoiser=lambda p: p,
+                                     accumulate="count")
         for t, f in zip(centres, frames, strict=True):
             np.testing.assert_allclose(f, demosaic_bilinear(accumulate(stream, w, start=t - w // 2, count=1)[0],
                                                             "RGGB"), atol=1e-6)

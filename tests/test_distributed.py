@@ -57,12 +57,16 @@ def _assert_identical(folder, reference):
 
 
 def test_plan_covers_the_frames_with_the_support_overlap():
-    p = ReconstructParams(window=10, K=3, L=3)
+    p = ReconstructParams(window=10, K=3, L=3, accumulate="count")
     chunks = plan_chunks(range(3, 14), p, 4)
     assert [(c.start, c.stop) for c in chunks] == [(3, 7), (7, 11), (11, 14)]
     assert chunks[0] == Chunk(0, 3, 7, 0, 100)  # windows 3−3 … 6+3
     overlap = chunks[0].stop_plane - chunks[1].first_plane
     assert overlap == ((p.K - 1) * p.L + 1) * p.window - p.window
+    # window charges (the default) read DEFAULT_MARGIN = 200 readouts more on either side, in whole windows
+    charge = plan_chunks(range(3, 40), ReconstructParams(window=30, K=3, L=3), 4)
+    assert charge[0] == Chunk(0, 3, 7, 0, (7 + 3) * 30 + 210)  # 200 readouts → 7 windows of 30; clipped at 0
+    assert charge[5] == Chunk(5, 23, 27, (23 - 3) * 30 - 210, (27 + 3) * 30 + 210)
     with pytest.raises(ValueError, match="chunk_frames must be a positive integer"):
         plan_chunks(range(3, 14), p, 0)
 
@@ -78,7 +82,8 @@ def test_chunks_run_anywhere_equal_one_run(recording, tmp_path, monkeypatch):
     reconstruct_chunk(str(path), {}, p, whole[0], str(tmp_path / "one"))
     for c in plan_chunks(frame_range(PLANES), p, 4):  # in this process, no scheduler
         s = reconstruct_chunk(str(path), {}, p, c, str(tmp_path / "chunks"))
-        assert s["written"] == c.stop - c.start and s["planes_read"] == c.stop_plane - c.first_plane
+        assert s["written"] == c.stop - c.start
+        assert s["planes_read"] == min(c.stop_plane, PLANES) - c.first_plane  # a charge's margin stops at the end
         assert s["threads"] == _numba_pool_size()
     _assert_identical(tmp_path / "chunks", tmp_path / "one")  # same process: bit for bit
     # another process with one thread instead of the whole pool: also bit for bit (every kernel
@@ -116,7 +121,8 @@ def test_two_worker_processes_write_bit_identical_frames(recording, client, tmp_
 def test_worker_error_names_the_chunk(recording, client, tmp_path):
     path, _ = recording
     (tmp_path / exr_name(7)).mkdir()  # frame 7 cannot be written: a folder sits at its name
-    with pytest.raises(ChunkError, match=r"chunk 1 \(frames 6:9, planes 30:120\) failed on a worker"):
+    # planes (6 − 3)·10 − 200 … (9 + 3)·10 + 200: the support and the window charge's margin, clipped at 0
+    with pytest.raises(ChunkError, match=r"chunk 1 \(frames 6:9, planes 0:320\) failed on a worker"):
         reconstruct_distributed(path, tmp_path, client=client, chunk_frames=3, progress=False)
 
 

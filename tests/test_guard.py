@@ -140,13 +140,16 @@ def test_low_light_is_not_read_as_noise_free():
 
 @settings(max_examples=15, deadline=None)
 @given(h=st.integers(3, 9), w=st.integers(3, 9), w0=st.sampled_from([5, 10]), w1=st.sampled_from([20, 100]),
-       seed=st.integers(0, 10_000))
-def test_carried_excess_variance_matches_the_oracle(h, w, w0, w1, seed):
+       seed=st.integers(0, 10_000), accumulate=st.sampled_from(["count", "charge"]))
+def test_carried_excess_variance_matches_the_oracle(h, w, w0, w1, seed, accumulate):
     rng = np.random.default_rng(seed)
     short = (rng.integers(0, w0 + 1, (2, h, w)) / w0).astype(np.float32)
-    got = carried_excess_variance(short, w0, w1)
+    if accumulate == "charge":  # charges are not whole numbers of spikes
+        short = (short + rng.random((2, h, w)) / w0).astype(np.float32)
+    got = carried_excess_variance(short, w0, w1, accumulate)
     for i in range(2):
-        assert got[i] == pytest.approx(carried_excess_variance_oracle(short[i], w0, w1), rel=1e-9, abs=1e-15)
+        want = carried_excess_variance_oracle(short[i], w0, w1, accumulate=accumulate)
+        assert got[i] == pytest.approx(want, rel=1e-9, abs=1e-15)
 
 
 def _fired_counts(rate, window, rng, shot=0.0):

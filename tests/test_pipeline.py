@@ -51,7 +51,7 @@ def test_support_and_frame_range():
 
 @pytest.mark.parametrize("K, L", [(1, 3), (3, 0)])
 def test_k1_or_l0_is_the_denoised_tfp(sample, K, L):
-    rec = Reconstructor(sample, ReconstructParams(window=10, K=K, L=L), denoiser=halve)
+    rec = Reconstructor(sample, ReconstructParams(window=10, K=K, L=L, accumulate="count"), denoiser=halve)
     for f in rec.frames(5, 8):
         np.testing.assert_allclose(f.rgb, _tfp_rgb(sample, f.index * 10, 10, halve), rtol=1e-6, atol=1e-7)
 
@@ -103,20 +103,22 @@ def test_charge_output_guard_measures_the_noise_on_the_reference_window(sample):
     np.testing.assert_allclose(final[0]["short"], bayer_planes(charge_rates(sample, 10, start=60, count=1)[0]),
                                rtol=1e-6)
     calls.clear()
-    list(Reconstructor(sample, ReconstructParams(window=10, K=3, L=2), denoiser=den).frames(6, 7))
+    list(Reconstructor(sample, ReconstructParams(window=10, K=3, L=2, accumulate="count"), denoiser=den).frames(6, 7))
     assert all(kw == {} for _, kw in calls)
 
 
 def test_zero_flow_is_weighted_accumulation_over_the_support(sample):
     # align=False: step 1 sums K windows (Eq. 14 with F = 0); step 2 averages K of those (Eq. 15):
     # windows k−2 … k+2 weighted 1, 2, 3, 2, 1 over 9 — the "weighted accumulation" of §4.2
-    rec = Reconstructor(sample, ReconstructParams(window=10, K=3, L=2, align=False), denoiser=identity)
+    rec = Reconstructor(sample, ReconstructParams(window=10, K=3, L=2, align=False, accumulate="count"),
+                        denoiser=identity)
     (f,) = list(rec.frames(6, 7))
     weights = np.array([1, 2, 3, 2, 1]) / 9
     rates = accumulate(sample, 10, start=40, count=5)
     want = demosaic_bilinear(np.tensordot(weights, rates, axes=1).astype(np.float32), sample.cfa)
     np.testing.assert_allclose(f.rgb, want, rtol=1e-5, atol=1e-6)
-    rec1 = Reconstructor(sample, ReconstructParams(window=10, K=3, L=1, align=False), denoiser=identity)
+    rec1 = Reconstructor(sample, ReconstructParams(window=10, K=3, L=1, align=False, accumulate="count"),
+                         denoiser=identity)
     (g,) = list(rec1.frames(6, 7))
     np.testing.assert_allclose(g.rgb, _tfp_rgb(sample, 50, 30), rtol=1e-5, atol=1e-6)
 
@@ -164,7 +166,7 @@ def test_reads_only_the_support_and_rings_stay_bounded(sample, monkeypatch, warp
         return real(stream, window, start, count, out)
 
     monkeypatch.setattr(acc_mod, "window_counts", spy)
-    params = ReconstructParams(window=10, K=3, L=3, warp=warp)
+    params = ReconstructParams(window=10, K=3, L=3, warp=warp, accumulate="count")  # Eq. 4, window by window
     rec = Reconstructor(sample, params, denoiser=identity)
     from spikeref.pipeline import _State
 
@@ -368,7 +370,8 @@ def test_smoothed_flow_frames_align_the_smoothed_raw_luma_and_denoise_only_the_o
     from spikeref.align import AlignParams
 
     # the plain search (the noise-aware one is told the frames' noise too: tests/test_align.py)
-    params = ReconstructParams(window=10, K=3, L=3, flow_frames="smoothed", align_params=AlignParams())
+    params = ReconstructParams(window=10, K=3, L=3, flow_frames="smoothed", align_params=AlignParams(),
+                               accumulate="count")
     list(Reconstructor(sample, params, denoiser=blur_like).frames(5, 9))
     assert len(calls) == 4  # the denoised flow frames would need 4 × (L + 1) = 16 in steady state and more to start
     (f,) = list(Reconstructor(sample, params, denoiser=blur_like).frames(12, 13, keep_steps=True))
@@ -379,7 +382,8 @@ def test_smoothed_flow_frames_align_the_smoothed_raw_luma_and_denoise_only_the_o
     for i in (-1, 1):
         expect = align(flow_luma(i0(12)), flow_luma(i0(12 + i)), step=0, params=params.align_params)
         np.testing.assert_array_equal(f.flows[(0, i)], expect)
-    denoised = ReconstructParams(window=10, K=3, L=3, flow_frames="denoised", align_params=AlignParams())
+    denoised = ReconstructParams(window=10, K=3, L=3, flow_frames="denoised", align_params=AlignParams(),
+                                 accumulate="count")
     (g,) = list(Reconstructor(sample, denoised, denoiser=blur_like).frames(12, 13, keep_steps=True))
     assert not np.array_equal(g.flows[(0, 1)], f.flows[(0, 1)])
 
@@ -408,11 +412,12 @@ def test_real_near_static_recording_defaults_against_plain_accumulation():
     ground truth for frames 3–8 made from planes 0–120 (disjoint noise), scored after a least-squares gain
     with an 8-pixel border left out.
 
-    Measured 2026-11-24 (W/K/L = 10/3/3, frames 3–8): plain accumulation with Eq. 14–15's weights 40.41 dB,
-    the paper's exact procedure 32.43; the defaults before issue 32's alignment changes 39.83 (39.77 without
-    the denoiser), with them (Lucas–Kanade refinement, regularised tile field, per-pixel zero test) 40.16
-    (40.38 without).  The denoiser costs 0.07 dB on plain accumulation here and 0.22 dB after the warp
-    (a near-static scene whose 70-plane support is already clean): it may cost up to 0.3 dB.
+    Measured 2026-11-24 (W/K/L = 10/3/3, frames 3–8): plain accumulation of Eq. 4's counts with Eq. 14–15's
+    weights 40.41 dB, of window charges (spikeref.charge) 48.39; the paper's exact procedure 33.90; the
+    defaults on counts with the count network 40.16 (40.38 without the denoiser); the defaults (window
+    charges, the charge network) 48.30, without the denoiser 48.39 — on a near-static scene the zero-motion
+    test keeps every flow at zero, and the 70-plane support is already clean: the denoiser may cost up to
+    0.3 dB here.
     """
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.metrics import psnr_after_gain
@@ -429,11 +434,15 @@ def test_real_near_static_recording_defaults_against_plain_accumulation():
             out.append(psnr_after_gain(truth, est, float(truth.max())))
         return float(np.mean(out))
 
-    plain = score(ReconstructParams(align=False), identity)
-    ours = score(ReconstructParams(), Denoiser.load())
+    plain_count = score(ReconstructParams(align=False, accumulate="count"), identity)
+    plain = score(ReconstructParams(align=False), identity)  # window charges, as the defaults
+    ours = score(ReconstructParams(), None)  # the bundled network for charges
     ours_no_d = score(ReconstructParams(), identity)
+    ours_count = score(ReconstructParams(accumulate="count"), Denoiser.load())
     paper = score(ReconstructParams.paper(), Denoiser.load(guard="off", shrink=False))
     assert ours >= plain - 0.6 and ours >= ours_no_d - 0.3 and ours_no_d >= plain - 0.5  # issue 32: within 0.5
+    assert ours_count >= plain_count - 0.6
+    assert ours > ours_count + 5.0 and plain > plain_count + 5.0  # the charge's gain on real spikes
     assert ours > paper + 5.0
 
 
@@ -481,7 +490,7 @@ def test_the_timed_network_is_the_same_denoiser(sample):
     from spikeref.denoise.unet import UNet, UNetSpec
 
     den = Denoiser(UNet.random(UNetSpec(width=8), seed=1))
-    rec = Reconstructor(sample, ReconstructParams(L=0), den)
+    rec = Reconstructor(sample, ReconstructParams(L=0, accumulate="count"), den)
     (frame,) = list(rec.frames(5, 6))
     planes = bayer_planes(accumulate(sample, 10, start=50, count=1)[0]).astype(np.float32)
     direct = demosaic_bilinear(bayer_mosaic(den(planes, "visible", window=10.0)), sample.cfa)

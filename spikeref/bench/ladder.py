@@ -11,25 +11,30 @@ rung                what it is
 ==================  ==============================================================================
 ``tfp``             TFP over the ``W`` planes of the window: Eq. 4, then Ψ
 ``bm3d``, ``nlm``   the classical peer a user would run on that one window instead: BM3D / non-local
-                    means on each Bayer plane, σ estimated blind (the ``peers`` extra)
-``net``             our denoiser on that one window: ``Ψ[D(I_0)]`` (the method at ``L = 0``)
+                    means on each Bayer plane of Eq. 4's rates, σ estimated blind (the ``peers`` extra)
+``net``             our denoiser on that one window: ``Ψ[D(I_0)]`` (the method at ``L = 0``, on what
+                    the method's windows give: the charge by default)
 ``tfp_support``     TFP over the whole support ``((K−1)L+1)·W`` planes, equal weights, no motion
 ``no_align``        the method with zero flow (plain accumulation with Eq. 14–15's weights, then D)
 ``no_denoiser``     the method with the identity for ``D`` (flows estimated on the raw frames)
-``paper``           the paper's procedure exactly: Fig. 3(b) with Eq. 14–15 step by step, the plain
-                    alignment, the network's ``D(I)`` without guard or shrinkage
+``paper``           the paper's procedure exactly: Fig. 3(b) on Eq. 4's counts with Eq. 14–15 step by
+                    step, the plain alignment, the count network's ``D(I)`` without guard or shrinkage
 ``ours``            the method as this package runs it by default (:class:`~spikeref.pipeline.ReconstructParams`)
-``true_flow``       the support warped by the scene's exact motion: every window's Bayer planes
-                    resampled once (cubic) onto the reference window, weighted by Eq. 14–15's
-                    binomial weights, no denoiser — what perfect alignment would give
-``true_flow_d``     the same, then our denoiser (told the exposure of ``I_L``)
+``true_flow``       the support warped by the scene's exact motion: every window's Bayer planes (of
+                    what the method's windows give) resampled once (cubic) onto the reference window,
+                    weighted by Eq. 14–15's binomial weights, no denoiser — what perfect alignment
+                    would give
+``true_flow_d``     the same, then our denoiser (told the exposure of ``I_L``, and as the pipeline
+                    does for charges, the reference window for its noise)
 ``limit``           the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
 ``ours_mhc``,       beyond Ψ: ours and the limit with the Malvar–He–Cutler demosaic instead of Ψ for
 ``limit_mhc``       the output (:mod:`spikeref.demosaic`, ``ReconstructParams(demosaic="mhc")``)
-``ours_charge``     beyond Eq. 4: ours on the windows' timing-aware charge (:mod:`spikeref.charge`,
-                    ``ReconstructParams(accumulate="charge")``) with the bundled ``b2u_w16_charge``
-                    (a plain callable given as the denoiser is used as it is)
+``ours_count``      ours on Eq. 4's counts (``ReconstructParams(accumulate="count")``) with the bundled
+                    count network ``b2u_w16``: what the window charge (the default) buys
 ==================  ==============================================================================
+
+Without a denoiser given, the method's rungs load the bundled network for what their windows
+give (:func:`spikeref.denoise.denoiser.bundled_weights`); a denoiser given is used for every rung.
 
 The true-flow rungs need a motion model (:meth:`SceneContent.true_flow`); the fan has none and
 shows them empty.  For the method's own flows the ladder also reports the **end-point error**
@@ -50,13 +55,13 @@ __all__ = ["RUNGS", "RUNG_LABELS", "LadderSetting", "binomial_weights", "true_fl
 
 #: The rungs, bottom to top.
 RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
-         "true_flow_d", "limit", "ours_mhc", "limit_mhc", "ours_charge")
+         "true_flow_d", "limit", "ours_mhc", "limit_mhc", "ours_count")
 RUNG_LABELS = {
     "tfp": "TFP(W)", "bm3d": "BM3D on W", "nlm": "NLM on W", "net": "D on W", "tfp_support": "TFP(support)",
     "no_align": "no alignment", "no_denoiser": "no denoiser", "paper": "paper's Fig. 3(b)", "ours": "ours",
     "true_flow": "true flow",
     "true_flow_d": "true flow + D", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
-    "limit_mhc": "limit, MHC demosaic", "ours_charge": "ours, window charge",
+    "limit_mhc": "limit, MHC demosaic", "ours_count": "ours, Eq. 4 count",
 }
 #: Border left out of the end-point error, full-resolution pixels.
 EPE_BORDER = 8
@@ -94,7 +99,7 @@ def true_flow_frame(counts: np.ndarray, content, window: int, first_plane: int, 
     Parameters
     ----------
     counts : ndarray ``(n, 4, h, w)``
-        Window counts of the support's ``n`` windows (Bayer planes).
+        Window counts (or charges, :mod:`spikeref.charge`) of the support's ``n`` windows (Bayer planes).
     content : SceneContent
         Gives the exact flow (:func:`spikeref.simulate.motion.plane_flow`).
     window : int
@@ -152,10 +157,14 @@ def _epe(est: np.ndarray, true: np.ndarray, visible: np.ndarray) -> float:
     return float(err[vis].mean()) if vis.any() else float("nan")
 
 
-def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list, denoiser, peers: dict, rungs,
-                      overrides: dict) -> tuple:
-    """Frames of every rung at the centres, seconds per frame of the single-window ones, and EPE per step."""
+def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list, denoisers: dict, peers: dict,
+                      rungs, overrides: dict) -> tuple:
+    """Frames of every rung at the centres, seconds per frame of the single-window ones, and EPE per step.
+
+    ``denoisers`` maps what a window gives (``"count"``, ``"charge"``) to the denoiser run on it.
+    """
     from spikeref.accumulate import window_counts
+    from spikeref.charge import window_charge
     from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
     from spikeref.pipeline import ReconstructParams, Reconstructor, exposure_planes
     from spikeref.simulate.motion import plane_flow
@@ -175,6 +184,9 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
     secs = {r: [] for r in rungs}
     epe: dict[int, list] = {}
     weights = binomial_weights(K, L)
+    base = ReconstructParams(window=w, K=K, L=L, **overrides)
+    acc = base.accumulate
+    denoiser = denoisers[acc]  # the method's
     # a content without a motion model (the fan, a user's video) has no true-flow rungs
     has_motion = sc.scene.content.true_flow(0.0, 0.0, np.zeros((1, 2))) is not None
     for k, truth in zip(ks, refs, strict=True):
@@ -182,6 +194,12 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
         counts = window_counts(view, w, start=first * w, count=2 * reach + 1).astype(np.float32)
         planes = bayer_planes(counts, cfa)  # (n, 4, h, w)
         i0 = planes[reach] / np.float32(w)
+        if acc == "charge":  # what the method's windows give (a charge reads up to 200 readouts around)
+            method_planes = bayer_planes(window_charge(view, w, start=first * w, count=2 * reach + 1), cfa)
+        else:
+            method_planes = planes
+        m0 = method_planes[reach] / np.float32(w)
+        more = {"accumulate": acc} if acc == "charge" else {}
         if "tfp" in rungs:
             out["tfp"].append(psi(i0))
         for name, peer in peers.items():
@@ -191,7 +209,7 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                 secs[name].append(time.perf_counter() - t0)
         if "net" in rungs:
             t0 = time.perf_counter()
-            out["net"].append(psi(denoiser(i0, "visible", window=w)))
+            out["net"].append(psi(denoiser(m0, "visible", window=w, **more)))
             secs["net"].append(time.perf_counter() - t0)
         if "tfp_support" in rungs:
             out["tfp_support"].append(psi(planes.sum(axis=0) / np.float32(w * len(planes))))
@@ -201,11 +219,15 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                     if r in rungs:
                         out[r].append(None)
             else:
-                tf = true_flow_frame(planes, sc.scene.content, w, offset + first * w, reach, weights)
+                tf = true_flow_frame(method_planes, sc.scene.content, w, offset + first * w, reach, weights)
                 if "true_flow" in rungs:
                     out["true_flow"].append(psi(tf))
                 if "true_flow_d" in rungs:
-                    out["true_flow_d"].append(psi(denoiser(tf, "visible", window=exposure_planes(w, K, L))))
+                    if acc == "charge" and L > 0:  # the output guard's noise from the reference window, as the pipeline
+                        more_d = {**more, "short": m0, "short_window": w}
+                    else:
+                        more_d = more
+                    out["true_flow_d"].append(psi(denoiser(tf, "visible", window=exposure_planes(w, K, L), **more_d)))
         if "limit" in rungs or "limit_mhc" in rungs:
             from spikeref.bayer import cfa_channel_map
             from spikeref.demosaic import demosaic_mhc
@@ -227,15 +249,13 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                 flows.append(frame.flows)
         return got, flows
 
-    base = ReconstructParams(window=w, K=K, L=L, **overrides)
     if "paper" in rungs:
         from spikeref.denoise.denoiser import Denoiser
 
-        paper_den = Denoiser(denoiser.unet, guard="off", shrink=False) if isinstance(denoiser, Denoiser) else denoiser
-        from spikeref.align import AlignParams
-
-        paper = ReconstructParams(window=w, K=K, L=L, warp="progressive", flow_frames="denoised",
-                                  align_params=AlignParams(prefer_centre=0.0))
+        count_den = denoisers["count"]
+        paper_den = Denoiser(count_den.unet, guard="off", shrink=False) if isinstance(count_den, Denoiser) \
+            else count_den
+        paper = ReconstructParams.paper(window=w, K=K, L=L)
         out["paper"] = run(paper, paper_den, False)[0]
     if "ours" in rungs:
         frames, flows = run(base, denoiser, True)
@@ -248,11 +268,8 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                     epe.setdefault(level, []).append(_epe(f, true, vis))
     if "ours_mhc" in rungs:
         out["ours_mhc"] = run(replace(base, demosaic="mhc"), denoiser, False)[0]
-    if "ours_charge" in rungs:
-        from spikeref.denoise.denoiser import Denoiser
-
-        charge_den = Denoiser.load("b2u_w16_charge") if isinstance(denoiser, Denoiser) else denoiser
-        out["ours_charge"] = run(replace(base, accumulate="charge"), charge_den, False)[0]
+    if "ours_count" in rungs:
+        out["ours_count"] = run(replace(base, accumulate="count"), denoisers["count"], False)[0]
     if "no_align" in rungs:
         out["no_align"] = run(replace(base, align=False), denoiser, False)[0]
     if "no_denoiser" in rungs:
@@ -271,8 +288,9 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
     settings : sequence of LadderSetting
     seed : int
         Simulation seed.
-    denoiser : Denoiser, optional
-        Default: the bundled weights.
+    denoiser : Denoiser or callable, optional
+        Used for every rung that denoises; default: the bundled network for what each rung's
+        windows give (:func:`~spikeref.denoise.denoiser.bundled_weights`).
     frames : int
         Scored frames per scene (:func:`~spikeref.bench.runner.score_centres`).
     peers : sequence of str
@@ -295,13 +313,16 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
     from tqdm import tqdm
 
     from spikeref.bench.runner import score_centres
-    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.charge import ACCUMULATE
+    from spikeref.denoise.denoiser import Denoiser, bundled_weights
 
     unknown = [r for r in rungs if r not in RUNGS]
     if unknown:
         raise ValueError(f"unknown rung {', '.join(unknown)}; allowed: {', '.join(RUNGS)}")
     if denoiser is None:
-        denoiser = Denoiser.load()
+        denoisers = {acc: Denoiser.load(bundled_weights(acc)) for acc in ACCUMULATE}
+    else:
+        denoisers = dict.fromkeys(ACCUMULATE, denoiser)
     notes = []
     peer_fns = {}
     for name in peers:
@@ -327,7 +348,7 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
             refs = [sc.reference(t) for t in centres]
             for setting in settings:
                 bar.set_postfix_str(f"{sc.key}: {setting.name}")
-                out, secs, epe = _frames_for_scene(sc, setting, centres, refs, denoiser, peer_fns, rungs,
+                out, secs, epe = _frames_for_scene(sc, setting, centres, refs, denoisers, peer_fns, rungs,
                                                    dict(params or {}))
                 for r in rungs:
                     imgs = out[r]

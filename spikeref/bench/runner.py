@@ -137,11 +137,12 @@ def _score(reference: np.ndarray, image: np.ndarray) -> dict:
 
 
 def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
-                align_params=None) -> tuple[list[np.ndarray], dict]:
+                align_params=None, accumulate: str | None = None) -> tuple[list[np.ndarray], dict]:
     """Frames of ``setting`` at the ``centres`` and its timings.
 
     ``align_params`` (an :class:`~spikeref.align.AlignParams`) replaces the method's default
-    alignment parameters (for studies of the alignment; the bench itself uses the defaults).
+    alignment parameters and ``accumulate`` (``"count"`` or ``"charge"``) what its windows give
+    (for studies; the bench itself uses the defaults).
 
     Returns
     -------
@@ -153,7 +154,7 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
         the frames after the first (:meth:`~spikeref.pipeline.Reconstructor.profile`; NaN for
         baselines and for a single scored frame).
     """
-    from spikeref.accumulate import accumulate
+    from spikeref.accumulate import accumulate as eq4
     from spikeref.baselines import TFSTPState, tfi, tfstp
     from spikeref.bayer import demosaic_bilinear
 
@@ -173,7 +174,7 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
             for _ in range(BASELINE_REPEATS):  # milliseconds each: repeat, so that one slow call does not decide
                 t0 = time.perf_counter()
                 if setting.method == "tfp":
-                    img = psi(accumulate(stream, w, start=t - w // 2, count=1)[0])
+                    img = psi(eq4(stream, w, start=t - w // 2, count=1)[0])
                 else:
                     img = psi(tfi(stream, times=[t])[0])
                 times.append(time.perf_counter() - t0)
@@ -195,6 +196,8 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
         view = stream.slice(offset)
         ks = [(t - w // 2 - offset) // w for t in centres]
         extra = {} if align_params is None else {"align_params": align_params}
+        if accumulate is not None:
+            extra["accumulate"] = accumulate
         params = ReconstructParams(window=w, K=setting.K, L=setting.L, mode=setting.mode, align=setting.align,
                                    flow_frames=setting.flow_frames, warp=setting.warp, **extra)
         rec = Reconstructor(view, params, denoiser)
@@ -246,7 +249,8 @@ def run_bench(grid: BenchGrid, seed: int = 0, denoiser=None, progress: bool = Tr
     seed : int
         Simulation seed (the same for every scene: the frames are deterministic).
     denoiser : Denoiser, optional
-        Default: the bundled weights.
+        Default: the bundled weights for what the method's windows give by default (the charge's,
+        :func:`~spikeref.denoise.denoiser.bundled_weights`).
     progress : bool
         A progress bar over scene × setting.
     sheet_scene : str
@@ -261,15 +265,17 @@ def run_bench(grid: BenchGrid, seed: int = 0, denoiser=None, progress: bool = Tr
     """
     from tqdm import tqdm
 
-    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.denoise.denoiser import Denoiser, bundled_weights
 
     scenes = bench_scenes(grid.scenes)
     settings = grid_settings(grid)
     if not settings:
         raise ValueError("the grid has no method to run")
     uses_ours = any(s.method == "ours" for s in settings)
-    if uses_ours and denoiser is None:
-        denoiser = Denoiser.load()
+    if uses_ours and denoiser is None:  # the bundled network for what the default windows give
+        from spikeref.pipeline import ReconstructParams
+
+        denoiser = Denoiser.load(bundled_weights(ReconstructParams().accumulate))
     rows, sheet, all_centres = [], {}, {}
     bar = tqdm(total=len(scenes) * len(settings), desc="bench", unit="run", disable=not progress)
     try:

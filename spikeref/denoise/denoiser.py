@@ -22,11 +22,21 @@ from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, carried
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
 
-__all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR"]
+__all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR", "BUNDLED_FOR", "bundled_weights"]
 
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
-#: The bundled weights used when none are named.
+#: The bundled weights used when none are named (trained on Eq. 4's counts).
 DEFAULT_WEIGHTS = WEIGHTS_DIR / "b2u_w16.npz"
+#: The bundled network for what a window gives (``accumulate=`` of the pipeline, ``Denoiser.frames``
+#: and the CLI): each was trained on that input's noise (``docs/results.md``).
+BUNDLED_FOR = {"count": "b2u_w16", "charge": "b2u_w16_charge"}
+
+
+def bundled_weights(accumulate: str) -> Path:
+    """The bundled weights file for ``accumulate`` (``"count"`` or ``"charge"``; :data:`BUNDLED_FOR`)."""
+    if accumulate not in BUNDLED_FOR:
+        raise ValueError(f"accumulate must be one of {', '.join(BUNDLED_FOR)}; got {accumulate!r}")
+    return WEIGHTS_DIR / f"{BUNDLED_FOR[accumulate]}.npz"
 
 
 def _check_guard(guard) -> str:

@@ -496,7 +496,7 @@ def _pipeline_align_params():
     return AlignParams(**_PIPELINE["align"])
 
 
-def _pipeline_fast(i, flow_frames="denoised", warp="progressive", guard="off"):
+def _pipeline_fast(i, flow_frames="denoised", warp="progressive", guard="off", accumulate="count"):
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.denoise.unet import UNet
     from spikeref.pipeline import ReconstructParams, Reconstructor
@@ -504,7 +504,7 @@ def _pipeline_fast(i, flow_frames="denoised", warp="progressive", guard="off"):
 
     c = _PIPELINE
     params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
-                               flow_frames=flow_frames, warp=warp)
+                               flow_frames=flow_frames, warp=warp, accumulate=accumulate)
     net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
     rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net, guard=guard))
     frames = list(rec.frames(c["frames"][0], c["frames"][-1] + 1, keep_steps=True))
@@ -544,6 +544,8 @@ def _pipeline_variant_oracle(i, outputs, **kw):
 _SMOOTHED = {"outputs": ("rgb", "flows"), "flow_frames": "smoothed"}
 _COMPOSED = {"outputs": ("rgb", "flows"), "warp": "composed", "guard": "sure"}
 _CHAINED = {"outputs": ("rgb",), "warp": "chained", "guard": "sure"}
+_CHARGE = {"outputs": ("rgb", "flows"), "warp": "composed", "guard": "sure", "flow_frames": "smoothed",
+           "accumulate": "charge"}
 
 
 def _inputs_flow_luma():
@@ -934,6 +936,30 @@ CASES: list[GoldenCase] = [
                                  "guard": "sure"}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_chained",
+    ),
+    GoldenCase(
+        "pipeline_frames_charge",
+        "Eq. 13–15 on window charges, warp=\"composed\", smoothed flow frames and the SURE guard (not in the "
+        "paper; the package's defaults but for the alignment parameters)",
+        "spikeref.pipeline.Reconstructor (ReconstructParams(accumulate=\"charge\", warp=\"composed\", "
+        "flow_frames=\"smoothed\"), Denoiser(guard=\"sure\"))",
+        "spikeref.oracles.pipeline.reconstruct_oracle (accumulate=\"charge\", warp=\"composed\", "
+        "flow_frames=\"smoothed\", guard=\"sure\")",
+        "The inputs and network of pipeline_frames, every window's Eq. 4 count replaced by its charge "
+        "(spikeref.charge, margin 200 readouts: the whole stream here): I_0 is the charge over W, I_1 Eq. 15 "
+        "over the I_0 of the K windows (Eq. 14 with one flow per window), flows on flow_luma(I_l) (σ = 1), I_L "
+        "by the composed warp of the charges (as pipeline_frames_composed_guard), and the output's guard with "
+        "each plane's σ² capped at the noise above the charge's floor measured on I_0 of the frame's own "
+        "window and carried to the exposure, every floor the charge's p²/(6W²) bound. Outputs: R_L (rgb) and "
+        "the flows of frames 3 and 4. The oracle computes in float64; its outputs are stored as float32.",
+        _inputs_pipeline, partial(_pipeline_variant_oracle, **_CHARGE), partial(_pipeline_variant_fast, **_CHARGE),
+        rtol=1e-4, atol=1e-5,
+        params=_pipeline_params({"input_domain": "count", "accumulate": "charge", "charge_margin": 200,
+                                 "warp": "composed", "flow_frames": "smoothed", "flow_sigma": 1.0,
+                                 "guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0,
+                                 "probe_fraction": 0.05, "guard_short_window": "the frame's own window (W)"}),
+        jit_disabled_check=False,
+        spec="docs/spec/pipeline.md#pipeline_frames_charge",
     ),
     GoldenCase(
         "metrics_psnr_ssim_pu21", "metrics (Wang et al. 2004 SSIM; Mantiuk & Azimi 2021 PU21)",

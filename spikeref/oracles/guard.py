@@ -53,15 +53,16 @@ def noise_sigma_oracle(plane, keep=0.75):
     return sum(responses[:count]) / count / (6 * unit)
 
 
-def carried_excess_variance_oracle(short, short_window, window, keep=0.75):
+def carried_excess_variance_oracle(short, short_window, window, keep=0.75, accumulate="count"):
     """One plane: ``max(0, σ(short)² − mean over pixels of q(p, W₀)) · W₀ / W``.
 
     ``σ`` is :func:`noise_sigma_oracle` of the short window's plane, ``q`` the quantisation floor
-    :func:`quantisation_variance_oracle` of each of its pixels at ``W₀ = short_window``: what the
-    floor does not explain, carried to ``W = window`` as noise that falls as ``1/W``.
+    :func:`quantisation_variance_oracle` (``accumulate``'s) of each of its pixels at ``W₀ =
+    short_window``: what the floor does not explain, carried to ``W = window`` as noise that falls
+    as ``1/W``.
     """
     short = np.asarray(short, dtype=np.float64)
-    floors = [quantisation_variance_oracle(p, short_window) for p in short.ravel()]
+    floors = [quantisation_variance_oracle(p, short_window, accumulate) for p in short.ravel()]
     excess = noise_sigma_oracle(short, keep) ** 2 - sum(floors) / len(floors)
     return max(0.0, excess) * short_window / window
 

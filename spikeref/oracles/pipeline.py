@@ -38,6 +38,13 @@ Options beyond the paper (defaults of :class:`spikeref.pipeline.ReconstructParam
   :func:`quantisation_variance_oracle` of ``f(I)`` per pixel, the probe ``b`` the ±1 array of
   NumPy's ``default_rng(0).integers(0, 2, shape, int8) · 2 − 1``, ``ε = 0.05`` × the root mean
   variance of the plane, radius 8; no shrinkage.  Frames that are only aligned are unguarded.
+* ``accumulate="charge"``: every window's Eq. 4 count is replaced by its charge
+  (:func:`window_charge_oracle`, margin 200 readouts over the whole stream): ``I_0(j)`` is the
+  charge over ``W``; ``I_1(j)`` is Eq. 15 over ``I_0(j+i)`` (Eq. 14 with one flow per window is
+  Eq. 15 of the windows' rates; a charge has no spike planes); the composed warp moves charges.
+  With ``guard="sure"`` and ``L ≥ 1`` each plane's ``σ²`` is capped at
+  :func:`carried_excess_variance_oracle` of ``I_0(k)`` (``W₀ = W``, carried to ``E_L``) plus the
+  plane's mean floor, and every floor is the charge's (:func:`quantisation_variance_oracle`).
 """
 
 from __future__ import annotations
@@ -47,8 +54,14 @@ import numpy as np
 from spikeref.oracles.accumulate import accumulate_oracle
 from spikeref.oracles.align import align_oracle
 from spikeref.oracles.bayer import bayer_planes_oracle, demosaic_bilinear_oracle
+from spikeref.oracles.charge import window_charge_oracle
 from spikeref.oracles.compose import composed_warp_oracle
-from spikeref.oracles.guard import noise_sigma_oracle, quantisation_variance_oracle, sure_alpha_oracle
+from spikeref.oracles.guard import (
+    carried_excess_variance_oracle,
+    noise_sigma_oracle,
+    quantisation_variance_oracle,
+    sure_alpha_oracle,
+)
 from spikeref.oracles.shrinkage import shrink_residual_oracle
 from spikeref.oracles.unet import unet_forward_oracle
 from spikeref.oracles.warp import eq14_oracle, eq15_oracle
@@ -113,7 +126,7 @@ def _mosaic(planes):
 
 def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, frames, depth=5, slope=0.1,
                        flow_frames="denoised", flow_sigma=1.0, keep_steps=True, warp="progressive",
-                       guard="off"):
+                       guard="off", accumulate="count"):
     """Frames ``R_L(k)``, every step ``R_l(k)`` and the flows ``F_l(k, k+i)`` for ``k`` in ``frames``.
 
     Parameters
@@ -136,6 +149,8 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
         How ``I_L`` is made (module docstring).
     guard : {"off", "sure"}
         The guard on the output's ``D_L`` (module docstring); ``"off"`` applies the shrinkage.
+    accumulate : {"count", "charge"}
+        What a window gives: Eq. 4's count or the window charge (module docstring).
 
     Returns
     -------
@@ -149,15 +164,25 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
     def window_planes(j):  # the spike planes of window j, split into Bayer planes
         return [bayer_planes_oracle(spikes[t]) for t in range(j * window, (j + 1) * window)]
 
+    def window_total(j):  # what window j gives, per Bayer plane: its spike count or its charge
+        if accumulate == "charge":
+            return bayer_planes_oracle(window_charge_oracle(spikes, window, start=j * window, count=1)[0])
+        return bayer_planes_oracle(accumulate_oracle(spikes, window, start=j * window)[0]) * window
+
     def I_l(level, j):
         key = (level, j)
         if key not in planes_memo:
             if level == 0:
-                planes_memo[key] = bayer_planes_oracle(accumulate_oracle(spikes, window, start=j * window)[0])
+                if accumulate == "charge":
+                    planes_memo[key] = window_total(j) / window
+                else:
+                    planes_memo[key] = bayer_planes_oracle(accumulate_oracle(spikes, window, start=j * window)[0])
             else:
                 flows = np.stack([F_l(level - 1, j, j + i) for i in range(-h, h + 1)])
                 if level == L and warp in ("composed", "chained") and h:
                     planes_memo[key] = composed_I_L(j)
+                elif level == 1 and accumulate == "charge":
+                    planes_memo[key] = eq15_oracle(np.stack([I_l(0, j + i) for i in range(-h, h + 1)]), flows)
                 elif level == 1:
                     sp = np.stack([p for i in range(-h, h + 1) for p in window_planes(j + i)])
                     planes_memo[key] = eq14_oracle(sp, flows, window)
@@ -184,23 +209,27 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
                 jj += i
             hops.append(row)
             targets.append(jj - (j - L * h))
-        counts = np.stack([bayer_planes_oracle(accumulate_oracle(spikes, window, start=t * window)[0]) * window
-                           for t in range(j - L * h, j + L * h + 1)])
+        counts = np.stack([window_total(t) for t in range(j - L * h, j + L * h + 1)])
         return composed_warp_oracle(counts, np.stack(bank), hops, targets, window)
 
     def network(planes, exposure):
         counts = (planes * exposure).astype(np.float32)
         return unet_forward_oracle(unet_params, counts, depth, slope).astype(np.float64) / exposure
 
-    def sure_guard(noisy, exposure):
+    def sure_guard(noisy, exposure, short=None):
         noisy = noisy.astype(np.float32).astype(np.float64)
         clean = network(noisy, exposure).astype(np.float32).astype(np.float64)
         var = np.zeros_like(noisy)
         for c in range(noisy.shape[0]):
             s2 = noise_sigma_oracle(noisy[c]) ** 2
+            floors = [[quantisation_variance_oracle(clean[c, y, x], exposure, accumulate)
+                       for x in range(noisy.shape[2])] for y in range(noisy.shape[1])]
+            if short is not None:  # the noise measured on the reference window, carried to the exposure
+                carried = carried_excess_variance_oracle(short[c], window, exposure, accumulate=accumulate)
+                s2 = min(s2, carried + float(np.mean(floors)))
             for y in range(noisy.shape[1]):
                 for x in range(noisy.shape[2]):
-                    var[c, y, x] = max(s2, quantisation_variance_oracle(clean[c, y, x], exposure))
+                    var[c, y, x] = max(s2, floors[y][x])
         b = (np.random.default_rng(0).integers(0, 2, size=noisy.shape, dtype=np.int8) * 2 - 1).astype(np.float64)
         eps = [0.05 * np.sqrt(var[c].mean()) for c in range(noisy.shape[0])]
         probed_in = (noisy + np.array(eps)[:, None, None] * b).astype(np.float32)
@@ -217,7 +246,8 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
             exposure = exposure_oracle(window, K, level)
             noisy = I_l(level, j)
             if guard == "sure" and level == L:
-                denoised_memo[key] = sure_guard(noisy, exposure)
+                short = I_l(0, j).astype(np.float32) if accumulate == "charge" and L > 0 else None
+                denoised_memo[key] = sure_guard(noisy, exposure, short)
             else:
                 denoised_memo[key] = shrink_residual_oracle(noisy, network(noisy, exposure), exposure)
         return denoised_memo[key]
