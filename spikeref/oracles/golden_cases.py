@@ -546,6 +546,8 @@ _COMPOSED = {"outputs": ("rgb", "flows"), "warp": "composed", "guard": "sure"}
 _CHAINED = {"outputs": ("rgb",), "warp": "chained", "guard": "sure"}
 _CHARGE = {"outputs": ("rgb", "flows"), "warp": "composed", "guard": "sure", "flow_frames": "smoothed",
            "accumulate": "charge"}
+#: The SURE guard's settings in the manifest of the cases that use it (spikeref.denoise.guard).
+_GUARD_PARAMS = {"guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05}
 
 
 def _inputs_flow_luma():
@@ -917,8 +919,7 @@ CASES: list[GoldenCase] = [
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_COMPOSED), partial(_pipeline_variant_fast, **_COMPOSED),
         rtol=1e-4, atol=1e-5,
         params=_pipeline_params({"input_domain": "count", "warp": "composed",
-                                 "interpolant": "Catmull-Rom (Keys a = -1/2)", "guard": "sure", "guard_radius": 8,
-                                 "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05}),
+                                 "interpolant": "Catmull-Rom (Keys a = -1/2)", **_GUARD_PARAMS}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_composed_guard",
     ),
@@ -955,9 +956,8 @@ CASES: list[GoldenCase] = [
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_CHARGE), partial(_pipeline_variant_fast, **_CHARGE),
         rtol=1e-4, atol=1e-5,
         params=_pipeline_params({"input_domain": "count", "accumulate": "charge", "charge_margin": 200,
-                                 "warp": "composed", "flow_frames": "smoothed", "flow_sigma": 1.0,
-                                 "guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0,
-                                 "probe_fraction": 0.05, "guard_short_window": "the frame's own window (W)"}),
+                                 "warp": "composed", "flow_frames": "smoothed", "flow_sigma": 1.0, **_GUARD_PARAMS,
+                                 "guard_short_window": "the frame's own window (W)"}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_charge",
     ),
