@@ -1,8 +1,10 @@
 """The denoiser as users call it: bundled weights, the three inference modes, frames of a stream.
 
-``Denoiser.load()`` reads the bundled weights (:data:`DEFAULT_WEIGHTS`, trained here on a CPU from
-unlabeled spikes: simulated procedural scenes and photographs under motion, and real monochrome
-recordings — see ``docs/results.md`` and ``scripts/train_denoiser.py``); ``den(planes, mode, window=W)``
+``Denoiser.load()`` reads the bundled weights (:data:`DEFAULT_WEIGHTS`, for Eq. 4's counts, trained here
+on a CPU from unlabeled spikes: simulated procedural scenes and photographs under motion, and real
+monochrome recordings — see ``docs/results.md`` and ``scripts/train_denoiser.py``;
+:func:`bundled_weights` names the network for window charges, which the pipeline loads by default);
+``den(planes, mode, window=W)``
 denoises Bayer planes of firing rates (exposure ``W`` planes) with the shared one-channel U-Net
 (:mod:`spikeref.denoise.unet`) in the mode asked for (:mod:`spikeref.denoise.blindspot`);
 :meth:`Denoiser.frames` gives ``Ψ[D(I)]`` for the windows of a spike stream (Eq. 4, then D, then the
@@ -117,9 +119,10 @@ class Denoiser:
         """From a weights ``.npz`` or the name of a bundled file (default: :data:`DEFAULT_WEIGHTS`).
 
         Bundled (``spikeref/denoise/weights/``, see ``docs/results.md``): ``b2u_w16`` (width 16,
-        trained on counts; the default), ``b2u_w16_charge`` (width 16, trained on the timing-aware
-        window charge of :mod:`spikeref.charge`: for ``accumulate="charge"``) and ``b2u_w32`` (width
-        32, trained on rates; about four times the time per frame with the direct convolution).
+        trained on counts; the default here and for ``accumulate="count"``), ``b2u_w16_charge`` (width
+        16, trained on the timing-aware window charge of :mod:`spikeref.charge`: for
+        ``accumulate="charge"``, the pipeline's default; :func:`bundled_weights`) and ``b2u_w32``
+        (width 32, trained on rates; about four times the time per frame with the direct convolution).
         """
         if path is None:
             path = DEFAULT_WEIGHTS
