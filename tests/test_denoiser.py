@@ -124,6 +124,31 @@ def test_cli_denoise_charge_takes_the_charge_network(tmp_path, monkeypatch):
     assert out.stat().st_size > 0 and loaded == ["b2u_w16_charge"]
 
 
+def test_each_accumulation_loads_the_network_trained_on_it(tmp_path, monkeypatch):
+    """bundled_weights: counts → b2u_w16, charges → b2u_w16_charge; the pipeline without a denoiser and
+    `spikeref reconstruct` without --weights load the one for their accumulation (charges by default)."""
+    import spikeref.cli as cli
+    from spikeref.denoise.denoiser import bundled_weights
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+
+    assert bundled_weights("count").name == "b2u_w16.npz" and bundled_weights("charge").name == "b2u_w16_charge.npz"
+    with pytest.raises(ValueError, match="accumulate must be one of count, charge"):
+        bundled_weights("photons")
+    loaded = []
+    real_load = Denoiser.load.__func__
+    monkeypatch.setattr(Denoiser, "load", classmethod(lambda c, path=None, **kw: loaded.append(path)
+                                                     or real_load(c, path, **kw)))
+    Reconstructor(load_sample(), ReconstructParams())
+    Reconstructor(load_sample(), ReconstructParams.paper())
+    assert [p.name for p in loaded] == ["b2u_w16_charge.npz", "b2u_w16.npz"]
+    names = []
+    real = cli._load_denoiser
+    monkeypatch.setattr(cli, "_load_denoiser", lambda weights, **kw: names.append(str(weights)) or real(weights, **kw))
+    for extra in ([], ["--paper"], ["--accumulate", "count"]):
+        assert main(["reconstruct", "--frames", "3:4", "-o", str(tmp_path / "r.mp4"), *extra]) == 0
+    assert names == ["b2u_w16_charge", "b2u_w16", "b2u_w16"]
+
+
 def test_cli_denoise_errors(tmp_path, capsys):
     assert main(["denoise", str(tmp_path / "none.dat"), "-o", str(tmp_path / "x.mp4")]) == 2
     assert "no such file" in capsys.readouterr().err
