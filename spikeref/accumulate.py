@@ -2,7 +2,7 @@
 
 .. math:: I_c(x, t) = \\frac{M_c}{W} \\sum_{\\tau} S_c(x, \\tau)
 
-Interpretation (DESIGN §3; the paper writes ``τ = t − W/2 … t + W/2``, which
+Interpretation (``docs/spec/README.md``; the paper writes ``τ = t − W/2 … t + W/2``, which
 is ``W + 1`` planes): the window is exactly ``W`` planes ``[t0, t0 + W)``, and
 frame ``k`` of a stream covers planes ``[start + kW, start + (k+1)W)``.  The
 rate ``count / W`` lies in ``[0, 1]`` (at most one spike per readout);

@@ -19,7 +19,7 @@ so backward warping of ``alternate`` by the flow (:func:`spikeref.warp.warp_bili
 reproduces ``reference``.  It is the ``F(x, t, t')`` of Eq. 14–15 with ``t`` the reference
 window and ``t'`` the alternate's.
 
-Interpretations (DESIGN §4; the paper names HDR+ and the pyramid, nothing finer)
+Interpretations (``docs/equations.md``; the paper names HDR+ and the pyramid, nothing finer)
 -------------------------------------------------------------------------------
 * **Pyramid.**  Level 0 is the image (float32).  Level ``k+1`` is level ``k`` blurred by the
   separable 5-tap binomial ``[1, 4, 6, 4, 1] / 16`` (a Gaussian of σ = 1 pixel; borders
@@ -1102,7 +1102,7 @@ def luma(planes) -> np.ndarray:
     Parameters
     ----------
     planes : ndarray ``(..., 4, h, w)``, real
-        Bayer planes (R, G1, G2, B in CFA-position order, DESIGN §3), e.g. the denoised
+        Bayer planes (R, G1, G2, B in CFA-position order, ``docs/spec/README.md``), e.g. the denoised
         firing rates ``D(I_l)``.
 
     Returns

@@ -4,7 +4,7 @@ The paper (§4.1) splits the mosaicked chromatic frame into its four Bayer
 channels of size ``H/2 × W/2`` before denoising, and recombines them after;
 Eq. 13 applies Ψ, "linear interpolation demosaicking", to obtain RGB.
 
-Conventions (``docs/equations.md``, DESIGN §3)
+Conventions (``docs/equations.md``, ``docs/spec/README.md``)
 ---------------------------------------------
 * A CFA pattern is a 4-letter string read at the positions (0,0), (0,1),
   (1,0), (1,1) of every 2×2 cell of the *upright* image: ``"RGGB"`` means

@@ -1,7 +1,7 @@
 """The progressive warping reconstruction, Eq. 13–15 and Fig. 3(b) (§4.2), streamed.
 
 Windows of ``W`` planes are numbered ``k = 0, 1, …`` (window ``k`` = planes ``[kW, (k+1)W)``,
-DESIGN §3).  With ``h = (K − 1)/2`` neighbours on each side:
+``docs/spec/README.md``).  With ``h = (K − 1)/2`` neighbours on each side:
 
 * **step 0** — Eq. 4 per window: ``I_0(k)`` (four Bayer planes of firing rates); Eq. 13:
   ``R_0(k) = Ψ[D(I_0(k))]``, used only to estimate the flow ``F_0(k, k+i)``, ``|i| ≤ h``
@@ -14,7 +14,7 @@ DESIGN §3).  With ``h = (K − 1)/2`` neighbours on each side:
 * **output** — ``R_L(k) = Ψ[D(I_L(k))]``, linear float32 RGB, one frame per window: ``20000/W``
   frames per second.
 
-Interpretations (DESIGN §4)
+Interpretations (``docs/equations.md``)
 ---------------------------
 * The ``K`` frames of a step are **adjacent windows** of the previous step (offsets
   ``−h … h``), so the support of ``R_L(k)`` is windows ``k − Lh … k + Lh``:

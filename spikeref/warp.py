@@ -13,7 +13,7 @@ and Eq. 15 (steps ``l ≥ 2``) averages ``K`` frames of the previous step, each 
 
     I_{c,l}(x, t) = \\frac{1}{K} \\sum_{i} I_{c,l-1}(x + F_{l-1}(x, t, t_i), t_i).
 
-Interpretations (DESIGN §4)
+Interpretations (``docs/equations.md``, "Interpretations")
 ---------------------------
 * **Backward bilinear sampling, per Bayer plane.**  A frame is ``(4, h, w)`` Bayer planes
   (or any ``(C, h, w)`` stack) on the plane grid; the flow ``(2, h, w)`` holds ``(dy, dx)`` in
@@ -32,7 +32,7 @@ Interpretations (DESIGN §4)
   :func:`warp_spike_windows` therefore warps the ``K`` window counts — ``W`` times fewer
   samples than warping plane by plane — and divides by ``W``; the plane-by-plane sum of
   the equation is :func:`spikeref.oracles.warp.eq14_oracle`, and a test holds the two equal.
-  ``M_c = 1`` (firing rates, DESIGN §3).
+  ``M_c = 1`` (firing rates, ``docs/spec/README.md``).
 """
 
 from __future__ import annotations

@@ -105,8 +105,10 @@ def test_golden_readme_points_to_the_specification():
 
 
 def test_no_document_cites_the_design_notes():
-    """The design notes are not part of the repository: a port's documents must not send it there."""
-    for path in [*GOLDEN.glob("*.md"), GOLDEN / "manifest.json", *(ROOT / "docs").rglob("*.md")]:
+    """The design notes are not part of the repository: neither a port's documents nor the code's docstrings
+    may send a reader there."""
+    for path in [*GOLDEN.glob("*.md"), GOLDEN / "manifest.json", *(ROOT / "docs").rglob("*.md"),
+                 *(ROOT / "spikeref").rglob("*.py")]:
         assert "DESIGN §" not in path.read_text(encoding="utf-8"), (
             f"{path.relative_to(ROOT)} cites the design notes (DESIGN §…), which are not in the repository: "
             "cite docs/equations.md or docs/spec/ instead")

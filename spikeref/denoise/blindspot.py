@@ -10,7 +10,7 @@ each pixel, the outputs of the frames where that pixel was hidden:
 
     D(I_c) = \\Phi(f_\\theta(\\Omega_{c,0}), \\dots) = \\sum_i M_i f_\\theta(\\Omega_{c,i}) / \\sum_i M_i
 
-Interpretations (DESIGN §4)
+Interpretations (``docs/equations.md``)
 ---------------------------
 * Eq. 11 writes ``Ω_{c,i} = (1 − M_i) I_c`` (hidden pixels set to 0).  As in Blind2Unblind,
   a hidden pixel is instead **filled with the weighted mean of its 8 neighbours**, weights

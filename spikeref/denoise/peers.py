@@ -1,7 +1,7 @@
 """Classical peer denoisers, run the way a user of this field would run them off the shelf.
 
-Not in the paper.  DESIGN §6 puts "the classical peer on the same single window (BM3D,
-non-local means)" on the benchmark's stage ladder: the spike denoiser has to beat what a
+Not in the paper.  The benchmark's stage ladder (:mod:`spikeref.bench.ladder`) has the classical peer
+on the same single window (BM3D, non-local means) as a rung: the spike denoiser has to beat what a
 practitioner gets by handing one window's firing-rate planes (Eq. 4, ``count / W``) to a
 textbook image denoiser.  This module is that practitioner.  "Off the shelf" means the
 libraries' documented calls with the parameters below and nothing tuned on our data:

@@ -6,7 +6,7 @@
           + \\eta \\lVert D(I) - I \\rVert_2^2
 
 ``D(I)`` is the blind output (Eq. 10–11), ``f_θ(I)`` the visible output (the network on the
-unmasked frame), ``I`` the noisy frame.  Interpretations (DESIGN §4): ``sg`` is a
+unmasked frame), ``I`` the noisy frame.  Interpretations (``docs/equations.md``): ``sg`` is a
 stop-gradient on the visible term (as in Blind2Unblind's code; the paper's Eq. 12 does not
 mark it); each squared norm is a **mean** over pixels (mean squared error), so the loss does
 not scale with the crop size; ``η = 1``; ``λ`` rises from 2 to 20 over training

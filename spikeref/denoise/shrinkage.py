@@ -1,7 +1,7 @@
 """Noise-adaptive residual shrinkage: give back the detail the denoiser removed beyond the noise.
 
 Not in the paper.  The paper's output is ``Ψ[D(I)]``.  A blind-spot network trained on all
-windows ``W = 5…200`` (DESIGN §4, Eq. 12) smooths a little at every exposure.  At long windows
+windows ``W = 5…200`` (``docs/equations.md``, Eq. 12) smooths a little at every exposure.  At long windows
 the noise it removes is small and that smoothing costs PSNR at colour edges (``docs/results.md``,
 denoiser section).  This step is a local Wiener rule on the residual ``r = I − D(I)``:
 

@@ -1,6 +1,6 @@
 """The spike-camera ``.dat`` layout, and ``.npy``/``.npz`` spike files.
 
-Layout (the one SpikeCV, Spike-Zoo and Spk2ImgNet read; DESIGN §3)
+Layout (the one SpikeCV, Spike-Zoo and Spk2ImgNet read; ``docs/spec/io.md``)
 -----------------------------------------------------------------
 * no header; the file is a sequence of planes, each ``H·Wf/8`` bytes where
   ``Wf`` is the stored row width (``Wf = W`` except on cameras that store

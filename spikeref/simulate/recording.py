@@ -45,7 +45,7 @@ def simulate_to_dat(scene, path, seed=0, *, planes: int | None = None, effects=N
     ----------
     scene : Scene
     path : str or Path
-        Output ``.dat`` (DESIGN §3 layout).  A sidecar ``NAME.json`` records height, width,
+        Output ``.dat`` (the layout of ``docs/spec/io.md``).  A sidecar ``NAME.json`` records height, width,
         CFA, readout rate, planes, scene name, seed and effects, so ``spikeref`` commands
         open the file without ``--height/--width/--cfa``.
     seed : int, numpy.random.Generator or None

@@ -1,4 +1,4 @@
-"""Scenes for the simulator: procedural radiance over time with exact ground truth (DESIGN §5).
+"""Scenes for the simulator: procedural radiance over time with exact ground truth.
 
 A :class:`Scene` holds what the camera looks at (its *content*), the camera (Eq. 1–3
 parameters, :class:`spikeref.simulate.camera.Camera`) and the noise effects to run
