@@ -66,3 +66,89 @@ def test_denoise_blind_1000x1000(benchmark, report, width, mode):
     benchmark.pedantic(lambda: blindspot_denoise(planes, net, mode), rounds=1, iterations=1)
     t = benchmark.stats.stats.median
     report(f"denoise {mode}, width {width}, 1000x1000", f"{1 / t:7.3f} frames/s ({t:6.1f} s/frame)")
+
+
+def _unet_flops(spec, h, w) -> float:
+    """FLOPs (2 per multiply-add) of the 3×3 convolutions of one forward pass on an ``h × w`` image
+    (already a multiple of ``2**depth``): layers ``head*``/``tail*`` at full size, ``enc{k}*`` at level
+    ``k``, ``dec{k}*`` at level ``k − 1`` (after the upsampling)."""
+    from spikeref.denoise.unet import layer_shapes
+
+    total = 0.0
+    for name, (cin, cout) in layer_shapes(spec).items():
+        level = int(name[3]) if name.startswith("enc") else int(name[3]) - 1 if name.startswith("dec") else 0
+        total += 2.0 * 9 * cin * cout * (h >> level) * (w >> level)
+    return total
+
+
+#: float32 FLOP per cycle and core (two FMA pipes × lanes × 2) of the CPUs LLVM names; others from their
+#: widest vector extension.  Nominal figures from the vendors' microarchitecture guides, not measured.
+FLOP_PER_CYCLE = {"znver1": 16, "znver2": 32, "znver3": 32, "znver4": 32, "znver5": 64,
+                  "skylake-avx512": 64, "cascadelake": 64, "icelake-server": 64, "sapphirerapids": 64,
+                  "haswell": 32, "broadwell": 32, "skylake": 32}
+
+
+def _fma_peak_flops(threads: int) -> tuple[float, str]:
+    """This CPU's nominal float32 peak for ``threads`` cores, and how it was found: FLOP per cycle of the
+    CPU LLVM sees (:data:`FLOP_PER_CYCLE`) × the clock /proc/cpuinfo reports."""
+    mhz = 2000.0
+    try:
+        with open("/proc/cpuinfo") as fh:
+            mhz = next(float(line.split(":")[1]) for line in fh if line.startswith("cpu MHz"))
+    except (OSError, StopIteration, ValueError):
+        pass
+    try:
+        import llvmlite.binding as ll
+
+        cpu = ll.get_host_cpu_name()
+        features = ll.get_host_cpu_features()
+    except (ImportError, RuntimeError):
+        cpu, features = "unknown", {}
+    per = FLOP_PER_CYCLE.get(cpu) or (64 if features.get("avx512f") else 32 if features.get("fma") else 8)
+    return threads * per * mhz * 1e6, f"{cpu}, {per} FLOP/cycle/core × {mhz / 1000:.2f} GHz × {threads}"
+
+
+@pytest.mark.parametrize("size", [(250, 400), (1000, 1000)])
+def test_unet_against_pytorch(benchmark, report, size):
+    """The Numba U-Net (width 16) against PyTorch CPU with the same weights and threads, side by side.
+
+    Input: the four Bayer planes of one frame (``(4, H/2, W/2)``), padded to a multiple of 32 as the
+    NumPy network does for itself (PyTorch is given the padded batch). Best of 7 (2 at 1000×1000) each.
+    Issue 26's target is 2× PyTorch at both sizes; this prints the ratio, GFLOP/s and % of the nominal
+    float32 FMA peak.
+    """
+    torch = pytest.importorskip("torch")
+    from spikeref._jit import numba, numba_available
+    from spikeref.denoise.torch_unet import TorchUNet, to_numpy_unet
+    from spikeref.denoise.unet import UNetSpec
+
+    threads = numba.get_num_threads() if numba_available else 1
+    torch.set_num_threads(threads)
+    torch.manual_seed(0)
+    spec = UNetSpec(width=16)
+    model = TorchUNet(spec).eval()
+    net = to_numpy_unet(model)
+    h, w = size[0] // 2, size[1] // 2
+    planes = np.random.default_rng(2).random((4, h, w)).astype(np.float32) * 0.3
+    m = spec.multiple
+    hp, wp = h + (-h) % m, w + (-w) % m
+    padded = np.pad(planes, ((0, 0), (0, hp - h), (0, wp - w)), mode="reflect")
+    x = torch.from_numpy(padded[:, None].copy())
+
+    def run_torch():
+        with torch.inference_mode():
+            return model(x)
+
+    net(planes)  # compile
+    run_torch()
+    np.testing.assert_allclose(net(planes), run_torch().numpy()[:, 0, :h, :w], rtol=1e-3, atol=1e-4)
+    rounds = 7 if size[0] < 500 else 2
+    benchmark.pedantic(lambda: net(planes), rounds=rounds, iterations=1)
+    t_ours = benchmark.stats.stats.min
+    t_torch = best_time(run_torch, repeat=rounds)
+    flops = 4 * _unet_flops(spec, hp, wp)
+    peak, how = _fma_peak_flops(threads)
+    report(f"U-Net w16 vs PyTorch, {size[0]}x{size[1]}",
+           f"ours {t_ours * 1e3:7.1f} ms ({flops / t_ours / 1e9:5.1f} GFLOP/s, {flops / t_ours / peak:4.0%} of the "
+           f"{peak / 1e9:.0f} GFLOP/s peak: {how}); PyTorch {t_torch * 1e3:7.1f} ms ({flops / t_torch / 1e9:5.1f} "
+           f"GFLOP/s, {flops / t_torch / peak:4.0%}); ours {t_torch / t_ours:4.2f}x PyTorch's speed")
