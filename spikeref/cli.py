@@ -137,10 +137,10 @@ def _check_seed(value) -> None:
 
 def _bundled_weights_by_default(args, accumulate: str) -> None:
     """Without ``--weights``: the bundled network trained on what the windows give (count or charge)."""
-    from spikeref.denoise.denoiser import BUNDLED_FOR
+    from spikeref.denoise.denoiser import bundled_weights
 
     if args.weights is None:
-        args.weights = BUNDLED_FOR[accumulate]
+        args.weights = bundled_weights(accumulate).stem  # the bundled name, as a user would give it
 
 
 def _load_denoiser(weights, **kw):
@@ -590,10 +590,9 @@ def cmd_bench(args) -> int:
     _check_seed(args.seed)
     out = args.out
     _check_output_dir(out, "--out")
-    if args.weights is None:  # the bundled network for what the method's windows give by default
-        from spikeref.pipeline import ReconstructParams
+    from spikeref.pipeline import DEFAULT_ACCUMULATE
 
-        _bundled_weights_by_default(args, ReconstructParams().accumulate)
+    _bundled_weights_by_default(args, DEFAULT_ACCUMULATE)  # the network for what the method's windows give
     den = _load_denoiser(args.weights) if any(s.method == "ours" for s in settings) else None
     _writable_dir(out, "--out")  # the last check, and the first thing made: every argument is good
     print(f"bench v{BENCH_VERSION}: {len(settings)} settings × {len(scenes)} scenes, {grid.frames} scored frames "

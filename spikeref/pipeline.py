@@ -90,7 +90,7 @@ from spikeref.warp import warp_average, warp_spike_windows
 __all__ = ["ReconstructParams", "ReconstructedFrame", "Reconstructor", "reconstruct", "frame_range",
            "support_planes", "exposure_planes", "FLOW_FRAMES", "FLOW_SMOOTHING_SIGMA", "WARPS", "DEFAULT_PREFER_CENTRE",
            "DEFAULT_REFINE", "DEFAULT_SMOOTHNESS", "DEFAULT_ZERO_TEST", "default_align_params",
-           "flow_luma", "PRESETS", "STAGES", "StageProfile", "ACCUMULATE"]
+           "flow_luma", "PRESETS", "STAGES", "StageProfile", "ACCUMULATE", "DEFAULT_ACCUMULATE"]
 
 #: What the flow of each step is estimated on: ``"denoised"`` — the 2×2 luma of ``D(I_l)``, as
 #: Fig. 3(b) — or ``"smoothed"`` — the 2×2 luma of ``I_l`` itself, smoothed by a Gaussian.
@@ -120,6 +120,10 @@ FLOW_SMOOTHING_SIGMA = 1.0
 #: ``"default"`` (the defaults), ``"fast"`` (:meth:`ReconstructParams.fast`), ``"paper"``
 #: (:meth:`ReconstructParams.paper`).
 PRESETS = ("default", "fast", "paper")
+#: ``ReconstructParams.accumulate`` of the default reconstruction: the window charge (:mod:`spikeref.charge`;
+#: not in the paper, whose Eq. 4 count :meth:`ReconstructParams.paper` keeps), chosen on the stage ladder
+#: (docs/results.md); callers that load the bundled network for it ask here.
+DEFAULT_ACCUMULATE = "charge"
 #: The stages of :attr:`Reconstructor.timings`, in pipeline order: Eq. 4 (reading the stream
 #: included), the U-Net's forward passes, the rest of the denoiser (its guard, shrinkage and the
 #: blind-spot bookkeeping), the alignment (flow frames and the HDR+ search), the warps (Eq. 14–15
@@ -190,7 +194,7 @@ class ReconstructParams:
     flow_frames: str = "smoothed"
     warp: str = "composed"
     demosaic: str = "bilinear"
-    accumulate: str = "charge"
+    accumulate: str = DEFAULT_ACCUMULATE
 
     def __post_init__(self):
         from spikeref.denoise.blindspot import MODES

@@ -273,9 +273,9 @@ def run_bench(grid: BenchGrid, seed: int = 0, denoiser=None, progress: bool = Tr
         raise ValueError("the grid has no method to run")
     uses_ours = any(s.method == "ours" for s in settings)
     if uses_ours and denoiser is None:  # the bundled network for what the default windows give
-        from spikeref.pipeline import ReconstructParams
+        from spikeref.pipeline import DEFAULT_ACCUMULATE
 
-        denoiser = Denoiser.load(bundled_weights(ReconstructParams().accumulate))
+        denoiser = Denoiser.load(bundled_weights(DEFAULT_ACCUMULATE))
     rows, sheet, all_centres = [], {}, {}
     bar = tqdm(total=len(scenes) * len(settings), desc="bench", unit="run", disable=not progress)
     try:

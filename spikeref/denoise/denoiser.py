@@ -27,11 +27,11 @@ from spikeref.denoise.unet import UNet
 __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR", "BUNDLED_FOR", "bundled_weights"]
 
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
-#: The bundled weights used when none are named (trained on Eq. 4's counts).
-DEFAULT_WEIGHTS = WEIGHTS_DIR / "b2u_w16.npz"
 #: The bundled network for what a window gives (``accumulate=`` of the pipeline, ``Denoiser.frames``
 #: and the CLI): each was trained on that input's noise (``docs/results.md``).
 BUNDLED_FOR = {"count": "b2u_w16", "charge": "b2u_w16_charge"}
+#: The bundled weights used when none are named (trained on Eq. 4's counts).
+DEFAULT_WEIGHTS = WEIGHTS_DIR / f"{BUNDLED_FOR['count']}.npz"
 
 
 def bundled_weights(accumulate: str) -> Path:

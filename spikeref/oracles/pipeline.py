@@ -164,10 +164,15 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
     def window_planes(j):  # the spike planes of window j, split into Bayer planes
         return [bayer_planes_oracle(spikes[t]) for t in range(j * window, (j + 1) * window)]
 
-    def window_total(j):  # what window j gives, per Bayer plane: its spike count or its charge
-        if accumulate == "charge":
-            return bayer_planes_oracle(window_charge_oracle(spikes, window, start=j * window, count=1)[0])
-        return bayer_planes_oracle(accumulate_oracle(spikes, window, start=j * window)[0]) * window
+    totals_memo = {}
+
+    def window_total(j):  # what window j gives, per Bayer plane: its spike count or its charge (made once)
+        if j not in totals_memo:
+            if accumulate == "charge":
+                totals_memo[j] = bayer_planes_oracle(window_charge_oracle(spikes, window, start=j * window, count=1)[0])
+            else:
+                totals_memo[j] = bayer_planes_oracle(accumulate_oracle(spikes, window, start=j * window)[0]) * window
+        return totals_memo[j]
 
     def I_l(level, j):
         key = (level, j)
