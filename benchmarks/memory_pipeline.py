@@ -23,7 +23,7 @@ CHILD = """
 import resource, sys, time
 from spikeref.denoise.denoiser import Denoiser
 from spikeref.denoise.unet import UNet, UNetSpec
-from spikeref.io.dat import read_dat
+from spikeref.stream import read_dat
 from spikeref.pipeline import Reconstructor
 stream = read_dat(sys.argv[1], height=128, width=128, cfa="RGGB")
 rec = Reconstructor(stream, denoiser=Denoiser(UNet.random(UNetSpec(width=16), seed=0)))

@@ -40,7 +40,7 @@ def main() -> None:
     from spikeref.accumulate import accumulate
     from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
     from spikeref.denoise.denoiser import DEFAULT_WEIGHTS, Denoiser
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
     from spikeref.metrics import psnr, ssim
     from spikeref.simulate.scenes import load_scene
     from spikeref.simulate.simulator import ground_truth

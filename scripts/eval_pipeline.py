@@ -41,7 +41,7 @@ def main() -> None:
     from spikeref.baselines import tfi, tfstp
     from spikeref.bayer import demosaic_bilinear
     from spikeref.denoise.denoiser import Denoiser
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
     from spikeref.metrics import psnr, ssim
     from spikeref.pipeline import ReconstructParams, Reconstructor
     from spikeref.simulate.scenes import load_scene

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spikeref.io.dat import read_dat
+from spikeref.stream import read_dat
 from spikeref.simulate.recording import simulate_to_dat
 from spikeref.simulate.scenes import load_scene
 

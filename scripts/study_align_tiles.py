@@ -22,7 +22,7 @@ TILES = [(16, 16, 8), (32, 16, 8), (32, 32, 16), (64, 32, 16), (64, 64, 32)]
 
 def part1(den) -> None:
     from spikeref.align import AlignParams
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
     from spikeref.metrics import psnr
     from spikeref.pipeline import ReconstructParams, Reconstructor
     from spikeref.simulate.scenes import load_scene

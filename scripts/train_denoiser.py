@@ -66,7 +66,7 @@ def simulate_missing(data_dir: Path) -> list[Path]:
 
 def training_streams(data_dir: Path, real: bool = True, min_side: int = 0):
     """The streams trained on (those at least ``min_side`` pixels high and wide), and their description."""
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
     from spikeref.stream import SpikeStream
 
     streams = [open_spike_file(p) for p in simulate_missing(data_dir)]

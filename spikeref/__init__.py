@@ -12,13 +12,13 @@ import importlib
 __version__ = "0.1.0.dev0"
 
 # Public names and the module that defines each.  They are imported on first use (PEP 562),
-# so ``import spikeref`` is quick and modules that need no Numba (the .dat reader, the
+# so ``import spikeref`` is quick and modules that need no Numba (the .dat layout, the
 # training code on a machine without Numba) import without it.
 _EXPORTS = {
     "SpikeStream": "spikeref.stream",
-    "read_dat": "spikeref.io.dat",
+    "read_dat": "spikeref.stream",
     "write_dat": "spikeref.io.dat",
-    "load_spikes": "spikeref.io.dat",
+    "load_spikes": "spikeref.stream",
     "save_spikes": "spikeref.io.dat",
     "accumulate": "spikeref.accumulate",
     "accumulate_window": "spikeref.accumulate",

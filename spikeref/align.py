@@ -860,13 +860,20 @@ def estimate_noise(image) -> float:
     return float((np.sqrt(0.5 * np.pi) * np.mean(immerkaer_response(img)) / 6.0) ** 2)
 
 
-def estimate_noise_correlation(reference, alternate) -> float:
+def estimate_noise_correlation(reference, alternate, *, noise=None) -> float:
     """Correlation of the noise of two images at the same pixel, ``1 − σ²(r − a) / (σ²(r) + σ²(a))``.
 
     Each ``σ²`` is :func:`estimate_noise`.  Spike counts of adjacent windows are anti-correlated
     (integrate-and-fire carries the residual charge of a window into the next: ``−½`` when the
     quantisation dominates, the value measured on the SpikingSIM real recording), frames with
     overlapping supports positively.  Texture that moves between the images lowers the estimate.
+
+    Parameters
+    ----------
+    reference, alternate : ndarray ``(h, w)`` float, same shape
+    noise : (float, float), optional
+        ``(σ²(r), σ²(a))`` when the caller has measured them already (the pipeline measures each
+        frame once and pairs it with several others); default :func:`estimate_noise` of each.
 
     Returns
     -------
@@ -876,11 +883,15 @@ def estimate_noise_correlation(reference, alternate) -> float:
     alt = _as_image(alternate, "alternate")
     if ref.shape != alt.shape:
         raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
-    return _noise_correlation(ref, alt, estimate_noise(ref), estimate_noise(alt))
-
-
-def _noise_correlation(ref: np.ndarray, alt: np.ndarray, var_ref: float, var_alt: float) -> float:
-    """:func:`estimate_noise_correlation` of checked images whose :func:`estimate_noise` is known."""
+    if noise is None:
+        var_ref, var_alt = estimate_noise(ref), estimate_noise(alt)
+    else:
+        try:
+            var_ref, var_alt = (float(v) for v in noise)
+        except (TypeError, ValueError):
+            raise TypeError(f"noise must be a pair of variances (σ²(r), σ²(a)); got {noise!r}") from None
+        if not (np.isfinite(var_ref) and np.isfinite(var_alt) and var_ref >= 0 and var_alt >= 0):
+            raise ValueError(f"noise must be two finite variances ≥ 0; got {noise!r}")
     total = var_ref + var_alt
     if total <= 0:
         return 0.0

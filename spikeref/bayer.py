@@ -37,6 +37,8 @@ __all__ = [
     "bayer_planes",
     "bayer_mosaic",
     "demosaic_bilinear",
+    "check_mosaic",
+    "reflect_index",
 ]
 
 CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
@@ -86,8 +88,12 @@ def _check_even(shape: tuple[int, ...], name: str) -> None:
         )
 
 
-def _check_mosaic(mosaic) -> tuple[np.ndarray, type]:
-    """A demosaic's input as an array with even sides, and its output dtype (float64 stays, else float32)."""
+def check_mosaic(mosaic) -> tuple[np.ndarray, type]:
+    """A demosaic's input as an array with even sides, and its output dtype (float64 stays, else float32).
+
+    The argument check of every demosaic (Ψ here, Malvar–He–Cutler in :mod:`spikeref.demosaic`):
+    ``ValueError`` naming ``mosaic`` for odd sides, ``TypeError`` for a dtype that is not float or integer.
+    """
     mosaic = np.asarray(mosaic)
     _check_even(mosaic.shape, "mosaic")
     if mosaic.dtype == np.float64:
@@ -133,9 +139,12 @@ def bayer_mosaic(planes: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
 
 
 @njit
-def _reflect(i, n):
-    # half-sample symmetric extension: -1 -> 0, n -> n-1 (n >= 1), folded again for offsets
-    # beyond the image (the shrinkage's box can be wider than a small plane)
+def reflect_index(i, n):
+    """Ψ's border rule as an index: half-sample symmetric extension (−1 → 0, n → n − 1, n ≥ 1).
+
+    Folded again for offsets beyond the image (the residual shrinkage's box, which uses the same
+    rule, can be wider than a small plane).  A Numba function: call it from kernels.
+    """
     while i < 0 or i >= n:
         i = -i - 1 if i < 0 else 2 * n - i - 1
     return i
@@ -154,9 +163,9 @@ def _demosaic_bilinear(mosaics, channel_of_plane, g_kernel, rb_kernel, out):
                 num = 0.0
                 den = 0.0
                 for dy in range(-1, 2):
-                    yy = _reflect(y + dy, h)
+                    yy = reflect_index(y + dy, h)
                     for dx in range(-1, 2):
-                        xx = _reflect(x + dx, w)
+                        xx = reflect_index(x + dx, w)
                         if channel_of_plane[(yy % 2) * 2 + (xx % 2)] == c:
                             wgt = kern[dy + 1, dx + 1]
                             num += wgt * mosaics[img, yy, xx]
@@ -190,7 +199,7 @@ def demosaic_bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     :func:`spikeref.oracles.demosaic_bilinear_oracle`.
     """
     channels = np.asarray(cfa_channels(cfa), dtype=np.int64)
-    mosaic, dtype = _check_mosaic(mosaic)
+    mosaic, dtype = check_mosaic(mosaic)
     lead = mosaic.shape[:-2]
     h, w = mosaic.shape[-2:]
     flat = np.ascontiguousarray(mosaic.reshape((-1, h, w)), dtype=dtype)

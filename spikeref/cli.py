@@ -224,7 +224,7 @@ def _check_input_options(args) -> None:
 
 def open_input(args):
     """Open the stream named by the parsed input options (sizes from the NAME.json sidecar if not given)."""
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
 
     _check_input_options(args)
     path = args.file if getattr(args, "file", None) is not None else SAMPLE
@@ -443,16 +443,13 @@ def cmd_reconstruct(args) -> int:
     _check_float(args.fps, "--fps")
     _check_video(video)
     _check_output_dir(exr_dir, "--exr-dir")
-    if args.workers is not None or args.scheduler is not None:
-        if args.no_shrink or args.guard is not None or args.paper:
-            raise CliError("--no-shrink, --guard and --paper are not passed to Dask workers yet; run without "
-                           "--workers/--scheduler")
-        if args.profile:
-            raise CliError("--profile times one process; run without --workers/--scheduler")
-        return _reconstruct_on_dask(args, params, video, exr_dir)
-    stream = open_input(args)
     guard = args.guard or ("off" if args.paper else "sure")
     shrink = not (args.no_shrink or args.paper)
+    if args.workers is not None or args.scheduler is not None:
+        if args.profile:
+            raise CliError("--profile times one process; run without --workers/--scheduler")
+        return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink)
+    stream = open_input(args)
     den = _load_denoiser(args.weights, mode=args.mode, shrink=shrink, guard=guard)
     rec = Reconstructor(stream, params, den)
     frames = _frames_in(args, rec.frames_available, params)
@@ -505,7 +502,7 @@ def cmd_reconstruct(args) -> int:
     return 0
 
 
-def _reconstruct_on_dask(args, params, video, exr_dir) -> int:
+def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
     import time
 
     from spikeref.distributed import ChunkError, assemble_video, reconstruct_distributed
@@ -528,8 +525,7 @@ def _reconstruct_on_dask(args, params, video, exr_dir) -> int:
     if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
         raise CliError(f"--frames {frames.start}:{frames.stop} are outside this stream's frames "
                        f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
-    if args.weights is not None:
-        _load_denoiser(args.weights, mode=params.mode)  # a bad weights file is refused here, not on every worker
+    _load_denoiser(args.weights, mode=params.mode, guard=guard, shrink=shrink)  # refused here, not on every worker
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
                    "rate_hz": args.rate_hz}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"
@@ -540,7 +536,7 @@ def _reconstruct_on_dask(args, params, video, exr_dir) -> int:
         summaries = reconstruct_distributed(stream.path, exr_dir, params, open_kwargs=open_kwargs,
                                             weights=args.weights, frames=frames, chunk_frames=args.chunk_frames,
                                             workers=args.workers, scheduler=args.scheduler, resume=args.resume,
-                                            half=args.half)
+                                            half=args.half, guard=guard, shrink=shrink)
     except (KeyboardInterrupt, OSError, ChunkError) as exc:  # frames already written stay: --resume goes on
         raise _stopped(args, exc, exr_dir, frames, _frames_written(exr_dir, frames)) from exc
     wall = time.perf_counter() - t0
@@ -717,7 +713,7 @@ def cmd_train(args) -> int:
         from spikeref.denoise.train import TrainConfig, train
     except ImportError as exc:
         raise CliError(f"training needs PyTorch: pip install 'spikeref[train]' ({exc})") from None
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
 
     streams = [open_spike_file(path, height=args.height, width=args.width, file_width=args.file_width)
                for path in args.data]

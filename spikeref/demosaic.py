@@ -25,8 +25,8 @@ edges) are clipped to 0, since radiance is not negative.  The literal oracle is
 from __future__ import annotations
 
 import numpy as np
+from spikeref.bayer import cfa_channel_map, check_mosaic, demosaic_bilinear, validate_cfa
 
-from spikeref.bayer import _check_mosaic, cfa_channel_map, validate_cfa
 
 __all__ = ["DEMOSAICS", "MHC_KERNELS", "demosaic_mhc", "demosaic"]
 
@@ -66,7 +66,7 @@ def demosaic_mhc(mosaic, cfa: str = "RGGB") -> np.ndarray:
     ndarray ``(..., H, W, 3)``, float32 (float64 for float64 input), ≥ 0.
     """
     pattern = validate_cfa(cfa)
-    arr, dtype = _check_mosaic(mosaic)
+    arr, dtype = check_mosaic(mosaic)
     h, w = arr.shape[-2:]
     chan = cfa_channel_map(h, w, pattern)
     rows = [set(pattern[0:2]), set(pattern[2:4])]  # the colours each row parity holds
@@ -86,8 +86,6 @@ def demosaic_mhc(mosaic, cfa: str = "RGGB") -> np.ndarray:
 def demosaic(mosaic, cfa: str = "RGGB", method: str = "bilinear") -> np.ndarray:
     """The output frame's demosaic by name: ``"bilinear"`` (Ψ, Eq. 13) or ``"mhc"`` (:func:`demosaic_mhc`)."""
     if method == "bilinear":
-        from spikeref.bayer import demosaic_bilinear
-
         return demosaic_bilinear(mosaic, cfa)
     if method == "mhc":
         return demosaic_mhc(mosaic, cfa)

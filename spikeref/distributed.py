@@ -85,12 +85,13 @@ def plan_chunks(frames: range, params: ReconstructParams, chunk_frames: int) -> 
 _DENOISERS: dict = {}
 
 
-def _denoiser(weights, mode, accumulate="count"):
-    key = (str(weights) if weights is not None else None, mode, accumulate)
+def _denoiser(weights, mode, accumulate="count", guard="sure", shrink=True):
+    key = (str(weights) if weights is not None else None, mode, accumulate, guard, shrink)
     if key not in _DENOISERS:  # one load per worker process
         from spikeref.denoise.denoiser import Denoiser, bundled_weights
 
-        _DENOISERS[key] = Denoiser.load(weights if weights is not None else bundled_weights(accumulate), mode=mode)
+        _DENOISERS[key] = Denoiser.load(weights if weights is not None else bundled_weights(accumulate), mode=mode,
+                                        guard=guard, shrink=shrink)
     return _DENOISERS[key]
 
 
@@ -128,8 +129,11 @@ def _numba_threads() -> int:
 
 
 def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, chunk: Chunk, exr_dir: str,
-                      weights=None, half: bool = False, skip=()) -> dict:
+                      weights=None, half: bool = False, skip=(), guard: str = "sure", shrink: bool = True) -> dict:
     """Reconstruct one chunk and write its EXR frames; runs on a worker (or anywhere).
+
+    ``weights``, ``guard`` and ``shrink`` make the denoiser as :meth:`Denoiser.load` does (the
+    bundled network for ``params.accumulate`` when ``weights`` is None).
 
     ``skip`` lists frames of the chunk already on disk (``--resume``: the caller vetted them
     with :func:`spikeref.render.frames_on_disk`, so the task reads no EXR file).
@@ -143,7 +147,7 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     """
     import resource
 
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
     from spikeref.io.exr import write_exr
     from spikeref.pipeline import Reconstructor
     from spikeref.render import exr_name, frame_runs
@@ -159,7 +163,7 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
         stop_plane = min(chunk.stop_plane, len(stream))  # a charge's margin may reach past the end
         view = stream.slice(chunk.first_plane, stop_plane)
         shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
-        rec = Reconstructor(view, params, _denoiser(weights, params.mode, params.accumulate))
+        rec = Reconstructor(view, params, _denoiser(weights, params.mode, params.accumulate, guard, shrink))
         for a, b in todo:
             for frame in rec.frames(a - shift, b - shift):
                 write_exr(out / exr_name(frame.index + shift), frame.rgb, half=half)
@@ -185,7 +189,8 @@ def _make_client(workers, scheduler):
 def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = None, *, open_kwargs: dict | None = None,
                             weights=None, frames: range | None = None, chunk_frames: int = 64,
                             workers: int | None = None, scheduler: str | None = None, client=None,
-                            resume: bool = False, half: bool = False, progress: bool = True) -> list[dict]:
+                            resume: bool = False, half: bool = False, progress: bool = True,
+                            guard: str = "sure", shrink: bool = True) -> list[dict]:
     """Reconstruct ``frames`` of the spike file ``path`` into ``exr_dir`` on a Dask cluster.
 
     Parameters
@@ -195,11 +200,19 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     exr_dir : path
         Output folder, writable by every worker; frame ``k`` is ``frame_{k:06d}.exr``.
     params : ReconstructParams
-        ``W, K, L``, mode, alignment (default: the paper's).
+        ``W, K, L``, mode, alignment and the rest (default ``ReconstructParams()``: the package's
+        defaults, which go beyond the paper where ``docs/results.md`` measured a gain;
+        ``ReconstructParams.paper()`` for the paper's procedure).
     open_kwargs : dict
-        ``height, width, cfa, file_width, rate_hz`` for :func:`spikeref.io.dat.open_spike_file`.
+        ``height, width, cfa, file_width, rate_hz`` for :func:`spikeref.stream.open_spike_file`.
     weights : path or bundled name, optional
-        Denoiser weights (default bundled).
+        Denoiser weights (default: the bundled network for ``params.accumulate``).
+    guard : {"sure", "off"}
+        The denoiser's guard on the output (:class:`spikeref.denoise.denoiser.Denoiser`; default
+        ``"sure"``, as :func:`spikeref.pipeline.reconstruct`; ``"off"`` for the paper's ``D``).
+    shrink : bool
+        With ``guard="off"``, the residual shrinkage (default True; False with ``guard="off"`` is
+        the paper's ``D(I)`` exactly).
     frames : range, optional
         Output frames (default every frame the stream has).
     chunk_frames : int
@@ -225,7 +238,7 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         When a chunk fails on a worker (the message names it); other chunks are cancelled,
         frames already written stay (rerun with ``resume=True``).
     """
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
     from spikeref.pipeline import Reconstructor
     from spikeref.render import frames_on_disk
 
@@ -243,8 +256,8 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
         raise ValueError(f"frames {frames.start}:{frames.stop} are outside this stream's frames "
                          f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
-    if weights is not None:
-        _denoiser(weights, params.mode)  # a bad weights file fails here, not on every worker
+    # a bad weights file or denoiser option fails here, not on every worker
+    _denoiser(weights, params.mode, params.accumulate, guard, shrink)
     exr_dir = Path(exr_dir).resolve()
     exr_dir.mkdir(parents=True, exist_ok=True)
     chunks = plan_chunks(frames, params, chunk_frames)
@@ -256,14 +269,15 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     if client is None:
         client, own = _make_client(workers, scheduler)
     try:
-        return _run(client, chunks, str(path), open_kwargs, params, str(exr_dir), weights, half, done, progress)
+        return _run(client, chunks, str(path), open_kwargs, params, str(exr_dir), weights, half, done, progress,
+                    (guard, shrink))
     finally:
         if own is not None:
             client.close()
             own.close()
 
 
-def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done, progress) -> list[dict]:
+def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done, progress, options) -> list[dict]:
     from dask.distributed import as_completed
     from tqdm import tqdm
 
@@ -273,7 +287,7 @@ def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done
     futures = []
     for c in chunks:
         skip = tuple(k for k in range(c.start, c.stop) if k in done)
-        f = client.submit(reconstruct_chunk, path, open_kwargs, params, c, exr_dir, weights, half, skip,
+        f = client.submit(reconstruct_chunk, path, open_kwargs, params, c, exr_dir, weights, half, skip, *options,
                           key=f"spikeref-chunk-{c.index}-{os.getpid()}-{time.time_ns()}", pure=False)
         submitted[f.key] = c
         futures.append(f)

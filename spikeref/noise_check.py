@@ -37,6 +37,7 @@ from tqdm import tqdm
 from spikeref._jit import njit, prange
 from spikeref.accumulate import window_counts
 from spikeref.bayer import cfa_channel_map, validate_cfa
+from spikeref.io.atomic import atomic_write
 from spikeref.stream import SpikeStream, as_stream
 
 __all__ = ["DEFAULT_WINDOWS", "DEFAULT_MIN_SPIKES", "NoiseCheck", "noise_check", "plot_noise_check"]
@@ -394,7 +395,6 @@ def plot_noise_check(result: NoiseCheck, path) -> Path:
         from matplotlib.figure import Figure
     except ImportError:
         raise ImportError("plot_noise_check needs matplotlib: pip install 'spikeref[plot]'") from None
-    from spikeref.io.atomic import atomic_write
 
     fig = Figure(figsize=(6.4, 4.2), dpi=120)
     ax = fig.add_subplot()

@@ -81,10 +81,15 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from spikeref.align import AlignParams, align, luma
+from spikeref.accumulate import window_counts
+from spikeref.align import AlignParams, align, estimate_noise, estimate_noise_correlation, local_noise, luma
 from spikeref.bayer import bayer_mosaic, bayer_planes
-from spikeref.stream import SpikeStream
-from spikeref.charge import ACCUMULATE
+from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, window_charge
+from spikeref.compose import composed_warp, path_table
+from spikeref.demosaic import DEMOSAICS, demosaic
+from spikeref.denoise.blindspot import MODES
+from spikeref.denoise.denoiser import Denoiser, bundled_weights
+from spikeref.stream import SpikeStream, as_stream
 from spikeref.warp import warp_average, warp_spike_windows
 
 __all__ = ["ReconstructParams", "ReconstructedFrame", "Reconstructor", "reconstruct", "frame_range",
@@ -197,8 +202,6 @@ class ReconstructParams:
     accumulate: str = DEFAULT_ACCUMULATE
 
     def __post_init__(self):
-        from spikeref.denoise.blindspot import MODES
-
         for name, low in (("window", 1), ("K", 1), ("L", 0)):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < low:
@@ -213,7 +216,6 @@ class ReconstructParams:
             raise TypeError(f"align_params must be an AlignParams; got {type(self.align_params).__name__}")
         if self.warp not in WARPS:
             raise ValueError(f"warp must be one of {', '.join(WARPS)}; got {self.warp!r}")
-        from spikeref.demosaic import DEMOSAICS
 
         if self.demosaic not in DEMOSAICS:
             raise ValueError(f"demosaic must be one of {', '.join(DEMOSAICS)}; got {self.demosaic!r}")
@@ -284,7 +286,7 @@ def default_align_params() -> AlignParams:
                        zero_test=DEFAULT_ZERO_TEST)
 
 
-def exposure_planes(window: int, K: int, level: int) -> float:
+def exposure_planes(window: int, K: int, step: int) -> float:
     """Noise-equivalent window of ``I_l``, in planes: what a count-domain denoiser is told.
 
     ``I_0`` is one window (``W``); ``I_1`` sums ``K`` windows (Eq. 14: ``K W``); ``I_l`` for
@@ -293,10 +295,10 @@ def exposure_planes(window: int, K: int, level: int) -> float:
     mean's variance is that of ``W / Σ c_j²`` planes (``K = 3, l = 2``: ``81/19 W ≈ 4.26 W``
     rather than the support's ``5 W``).  Warping's interpolation is ignored.
     """
-    if level <= 0 or K == 1:
+    if step <= 0 or K == 1:
         return float(window)
     c = np.ones(1)
-    for _ in range(level):
+    for _ in range(step):
         c = np.convolve(c, np.ones(K))
     c /= c.sum()
     return float(window / np.sum(c * c))
@@ -458,8 +460,6 @@ class Reconstructor:
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray]:
-        from spikeref.denoise.denoiser import Denoiser, bundled_weights
-
         if denoiser is None:  # the bundled network trained on what the windows give
             denoiser = Denoiser.load(bundled_weights(self.params.accumulate))
         if isinstance(denoiser, Denoiser):
@@ -561,17 +561,15 @@ class _State:
         self.p = rec.params
         self.stream = rec.stream
         self.keep_flows = keep_flows
-        # level l: {k: [I_l(k) planes, D(I_l(k)) planes or None, luma or None, F_{l-1}(k, ·) if kept,
+        # step l: {k: [I_l(k) planes, D(I_l(k)) planes or None, luma or None, F_{l-1}(k, ·) if kept,
         #               (raw luma, its local noise, its noise variance) of the noise-aware search or None]}
-        self.levels: list[dict] = [dict() for _ in range(self.p.L + 1)]
+        self.rings: list[dict] = [dict() for _ in range(self.p.L + 1)]
         self.step0: dict[int, np.ndarray] = {}  # F_0(k, ·) of warp="chained"
         self.counts: dict[int, np.ndarray] = {}
 
     # step 0 -------------------------------------------------------------
     def window_counts(self, k: int) -> np.ndarray:
         if k not in self.counts:
-            from spikeref.accumulate import window_counts
-
             with self.timed("accumulate"):
                 if self.p.accumulate == "charge":
                     self._charge_block(k)
@@ -585,77 +583,75 @@ class _State:
         """The charges (:func:`spikeref.charge.window_charge`) of windows ``k …`` (up to
         :data:`~spikeref.charge.WINDOWS_PER_CALL` that fit), float32 Bayer planes; each window's value
         does not depend on the block."""
-        from spikeref.charge import WINDOWS_PER_CALL, window_charge
-
         w = self.p.window
         count = min(WINDOWS_PER_CALL, len(self.stream) // w - k)
         charge = window_charge(self.stream, w, start=k * w, count=count)
         for i in range(count):
             self.counts.setdefault(k + i, bayer_planes(charge[i]))
 
-    def planes(self, level: int, k: int) -> np.ndarray:
+    def planes(self, step: int, k: int) -> np.ndarray:
         """``I_l(k)`` ``(4, h, w) float32``."""
-        ring = self.levels[level]
+        ring = self.rings[step]
         if k not in ring:
-            planes, flows = self._compute(level, k)
-            keep = self.keep_flows or (self.p.warp == "composed" and level < self.p.L)
+            planes, flows = self._compute(step, k)
+            keep = self.keep_flows or (self.p.warp == "composed" and step < self.p.L)
             ring[k] = [planes, None, None, flows if keep else None, None]
         return ring[k][0]
 
-    def denoised(self, level: int, k: int) -> np.ndarray:
-        entry = self.levels[level].get(k)
+    def denoised(self, step: int, k: int) -> np.ndarray:
+        entry = self.rings[step].get(k)
         if entry is None:
-            self.planes(level, k)
-            entry = self.levels[level][k]
+            self.planes(step, k)
+            entry = self.rings[step][k]
         if entry[1] is None:
             with self.timed("guard"):  # the network's passes inside are timed apart
-                exposure = exposure_planes(self.p.window, self.p.K, level)
-                final = level == self.p.L
+                exposure = exposure_planes(self.p.window, self.p.K, step)
+                final = step == self.p.L
                 # charges: the guard measures the noise on the reference window's own charge and carries it
                 # to the exposure (spikeref.denoise.guard.carried_excess_variance), as denoise mode does
-                short = self.planes(0, k) if final and level > 0 and self.p.accumulate == "charge" else None
+                short = self.planes(0, k) if final and step > 0 and self.p.accumulate == "charge" else None
                 out = np.asarray(self.rec._denoise(entry[0], exposure, final, short), dtype=np.float32)
             if out.shape != entry[0].shape:
                 raise ValueError(f"the denoiser returned shape {out.shape} for planes {entry[0].shape}")
             if not np.all(np.isfinite(out)):
                 raise ValueError(f"the denoiser returned non-finite values (NaN or inf) for window {k} at step "
-                                 f"{level}")
+                                 f"{step}")
             entry[1] = out
         return entry[1]
 
-    def luma(self, level: int, k: int) -> np.ndarray:
-        """The image the flow of step ``level`` is estimated on (``flow_frames``)."""
-        entry = self.levels[level].get(k)
+    def luma(self, step: int, k: int) -> np.ndarray:
+        """The image the flow of step ``step`` is estimated on (``flow_frames``)."""
+        entry = self.rings[step].get(k)
         if entry is None or entry[2] is None:
             if self.p.flow_frames == "smoothed":
-                planes = self.planes(level, k)
+                planes = self.planes(step, k)
                 with self.timed("align"):
                     image = flow_luma(planes, FLOW_SMOOTHING_SIGMA)  # the module's value at call time
             else:
-                image = luma(self.denoised(level, k))
-            self.levels[level][k][2] = image
-        return self.levels[level][k][2]
+                image = luma(self.denoised(step, k))
+            self.rings[step][k][2] = image
+        return self.rings[step][k][2]
 
-    def flows(self, level: int, k: int) -> np.ndarray:
+    def flows(self, step: int, k: int) -> np.ndarray:
         """``F_l(k, k+i)`` for ``i = −h … h``: ``(K, 2, h, w)`` (zero for ``i = 0``)."""
         p, hh = self.p, self.p.half
         shape = self.window_counts(k).shape[1:]
         out = np.zeros((p.K, 2) + shape, np.float32)
         if not p.align or hh == 0:  # K = 1: no neighbour to align, so no denoising for flow either
             return out
-        ref = self.luma(level, k)
-        tile_step = level
+        ref = self.luma(step, k)
+        tile_step = step
         for j, i in enumerate(range(-hh, hh + 1)):
             if i:
-                alt = self.luma(level, k + i)
+                alt = self.luma(step, k + i)
                 with self.timed("align"):
                     if p.align_params.prefer_centre > 0 or p.align_params.zero_test is not None:
-                        out[j] = self.noise_aware_flow(ref, alt, level, k, k + i)
+                        out[j] = self.noise_aware_flow(ref, alt, step, k, k + i)
                     else:
                         out[j] = align(ref, alt, step=tile_step, params=p.align_params)
         return out
 
-    def noise_aware_flow(self, ref: np.ndarray, alt: np.ndarray, level: int, k: int, j: int) -> np.ndarray:
+    def noise_aware_flow(self, ref: np.ndarray, alt: np.ndarray, step: int, k: int, j: int) -> np.ndarray:
         """``align`` with the noise of ``I_l(k)`` and ``I_l(j)`` (``prefer_centre > 0`` or a ``zero_test``).
 
         The noise variance (:func:`spikeref.align.local_noise`) and the correlation of the two
@@ -665,44 +661,39 @@ class _State:
         anti-correlation of adjacent windows' counts is a property of the raw spikes.  The per-pixel
         zero-motion test (``AlignParams.zero_test``) compares those raw lumas too.
         """
-        from spikeref.align import _noise_correlation
-
-        (r_raw, r_noise, r_var), (a_raw, a_noise, a_var) = self.raw_noise(level, k), self.raw_noise(level, j)
-        # = estimate_noise_correlation(r_raw, a_raw), each frame's own estimate made once
-        rho = _noise_correlation(r_raw, a_raw, r_var, a_var)
-        return align(ref, alt, step=level, params=self.p.align_params, noise=0.5 * (r_noise + a_noise),
+        (r_raw, r_noise, r_var), (a_raw, a_noise, a_var) = self.raw_noise(step, k), self.raw_noise(step, j)
+        rho = estimate_noise_correlation(r_raw, a_raw, noise=(r_var, a_var))  # each frame's own estimate made once
+        return align(ref, alt, step=step, params=self.p.align_params, noise=0.5 * (r_noise + a_noise),
                      correlation=rho, raw=(r_raw, a_raw))
 
-    def raw_noise(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray, float]:
+    def raw_noise(self, step: int, k: int) -> tuple[np.ndarray, np.ndarray, float]:
         """The 2×2 luma of ``I_l(k)`` before denoising, its local noise map and its global noise variance
         (:func:`spikeref.align.estimate_noise`), made once per frame (each frame is aligned against up
         to ``2h`` others, as reference and as alternate)."""
-        from spikeref.align import estimate_noise, local_noise
-
-        self.planes(level, k)
-        entry = self.levels[level][k]
+        self.planes(step, k)
+        entry = self.rings[step][k]
         if entry[4] is None:
             raw = luma(entry[0])
             entry[4] = (raw, local_noise(raw), estimate_noise(raw))
         return entry[4]
 
-    def _compute(self, level: int, k: int) -> tuple[np.ndarray, np.ndarray | None]:
+    def _compute(self, step: int, k: int) -> tuple[np.ndarray, np.ndarray | None]:
         """``I_l(k)`` and the flows ``F_{l−1}(k, ·)`` that made it."""
         p, hh = self.p, self.p.half
-        if level == 0:
+        if step == 0:
             return self.window_counts(k).astype(np.float32) / np.float32(p.window), None
         neighbours = range(k - hh, k + hh + 1)
-        if level == p.L and p.warp == "chained" and p.align and hh:
+        if step == p.L and p.warp == "chained" and p.align and hh:
             # the steps' own flows are not needed (only kept for keep_steps, which asks for them)
-            return self._composed(k, None), (self.flows(level - 1, k) if self.keep_flows else None)
-        fl = self.flows(level - 1, k)
-        if level == p.L and p.warp == "composed" and p.align and hh:
+            return self._composed(k, None), (self.flows(step - 1, k) if self.keep_flows else None)
+        fl = self.flows(step - 1, k)
+        if step == p.L and p.warp == "composed" and p.align and hh:
             return self._composed(k, fl), fl
-        if level == 1:  # Eq. 14: the spike planes of K windows
+        if step == 1:  # Eq. 14: the spike planes of K windows
             counts = np.stack([self.window_counts(j) for j in neighbours])
             with self.timed("warp"):
                 return warp_spike_windows(counts, fl, p.window), fl
-        frames = np.stack([self.planes(level - 1, j) for j in neighbours])  # Eq. 15
+        frames = np.stack([self.planes(step - 1, j) for j in neighbours])  # Eq. 15
         with self.timed("warp"):
             return warp_average(frames, fl), fl
 
@@ -719,8 +710,6 @@ class _State:
         that made ``I_{m+1}(j)``, kept in the rings.  With ``warp="chained"`` every hop uses the
         step-0 flow of the window it starts from (:meth:`step0_flows`) and ``top`` is not used.
         """
-        from spikeref.compose import composed_warp, path_table
-
         p, hh, L = self.p, self.p.half, self.p.L
         chained = p.warp == "chained"
         bank, index, hops, targets = [], {}, [], []
@@ -734,7 +723,7 @@ class _State:
                         if chained:
                             flows = self.step0_flows(kk)
                         else:
-                            flows = top if m == L - 1 else self.levels[m + 1][kk][3]
+                            flows = top if m == L - 1 else self.rings[m + 1][kk][3]
                         index[key] = len(bank)
                         bank.append(flows[i + hh])
                     row.append(index[key])
@@ -753,7 +742,6 @@ class _State:
             mosaic = bayer_mosaic(planes, self.stream.cfa or "RGGB")
             if not self.stream.cfa:
                 return mosaic
-            from spikeref.demosaic import demosaic
 
             return demosaic(mosaic, self.stream.cfa, self.p.demosaic)
 
@@ -762,19 +750,19 @@ class _State:
         rgb = self.finish(self.denoised(L, k)).astype(np.float32, copy=False)
         frame = ReconstructedFrame(index=k, rgb=rgb)
         if keep_steps:
-            frame.steps = [self.finish(self.denoised(level, k)) for level in range(L + 1)]
-            for level in range(1, L + 1):
-                fl = self.levels[level][k][3]
+            frame.steps = [self.finish(self.denoised(step, k)) for step in range(L + 1)]
+            for step in range(1, L + 1):
+                fl = self.rings[step][k][3]
                 for i, f in zip(range(-self.p.half, self.p.half + 1), fl, strict=True):
                     if i:
-                        frame.flows[(level - 1, i)] = f
+                        frame.flows[(step - 1, i)] = f
         return frame
 
     def evict(self, next_k: int) -> None:
-        """Drop what no frame ``≥ next_k`` needs: level ``l`` keeps windows ``≥ next_k − (L−l)h``."""
+        """Drop what no frame ``≥ next_k`` needs: step ``l`` keeps windows ``≥ next_k − (L−l)h``."""
         hh, L = self.p.half, self.p.L
-        for level, ring in enumerate(self.levels):
-            low = next_k - (L - level) * hh
+        for step, ring in enumerate(self.rings):
+            low = next_k - (L - step) * hh
             for key in [key for key in ring if key < low]:
                 del ring[key]
         low0 = next_k - L * hh
@@ -797,7 +785,7 @@ def _fit_align_size(h: int, w: int, p: ReconstructParams) -> ReconstructParams:
     import warnings
 
     a = p.align_params
-    need = max(a.min_size(level) for level in range(p.L))
+    need = max(a.min_size(step) for step in range(p.L))
     if min(h, w) >= need:
         return p
     fitted = a.fitted(h, w)
@@ -842,8 +830,6 @@ def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visibl
     ndarray ``(H, W, 3) float32``
         Linear RGB in spikes per readout, at ``20000 / W`` frames per second.
     """
-    from spikeref.stream import as_stream
-
     if isinstance(stream, np.ndarray):
         stream = as_stream(stream, cfa="RGGB")
     kw = {k: v for k, v in (("flow_frames", flow_frames), ("warp", warp), ("align_params", align_params))

@@ -14,6 +14,8 @@ from typing import Iterator
 
 import numpy as np
 
+from spikeref import baselines
+from spikeref.bayer import demosaic_bilinear
 from spikeref.io.exr import read_exr, write_exr
 from spikeref.io.video import VideoWriter
 from spikeref.tonemap import Exposure, choose_exposure, tonemap
@@ -164,9 +166,6 @@ class FrameSink:
 def baseline_frames(stream, method: str, window: int = 10, every: int | None = None,
                     chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
     """Yield ``(index, frame)`` of a baseline over a stream, colour (Ψ) when the stream has a CFA."""
-    from spikeref import baselines
-    from spikeref.bayer import demosaic_bilinear
-
     if method not in baselines.BASELINES:
         raise ValueError(f"unknown baseline {method!r}; choose one of {', '.join(baselines.BASELINES)}")
     every = window if every is None else every  # 0 is a value (refused downstream), not "not given"

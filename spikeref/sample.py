@@ -12,6 +12,9 @@ import json
 from pathlib import Path
 
 import numpy as np
+from spikeref.simulate.scenes import load_scene
+from spikeref.simulate.simulator import ground_truth
+from spikeref.stream import read_dat
 
 __all__ = ["SAMPLE_DAT", "SAMPLE_SCENE", "load_sample", "sample_scene", "sample_ground_truth"]
 
@@ -22,21 +25,15 @@ SAMPLE_SCENE = _DATA / "sample.toml"
 
 def load_sample():
     """The sample as a memory-mapped :class:`spikeref.SpikeStream` (with its CFA)."""
-    from spikeref.io.dat import read_dat
-
     meta = json.loads(SAMPLE_DAT.with_suffix(".json").read_text())
     return read_dat(SAMPLE_DAT, meta["height"], meta["width"], cfa=meta["cfa"], rate_hz=meta["rate_hz"])
 
 
 def sample_scene():
     """The :class:`spikeref.simulate.scenes.Scene` the sample was simulated from."""
-    from spikeref.simulate.scenes import load_scene
-
     return load_scene(SAMPLE_SCENE)
 
 
 def sample_ground_truth(window: int = 10, start: int = 0) -> np.ndarray:
     """Ground truth of the sample: ``(n, 224, 256, 3) float32`` mean radiance per window, rate units."""
-    from spikeref.simulate.simulator import ground_truth
-
     return ground_truth(sample_scene(), window, start=start)

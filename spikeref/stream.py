@@ -3,9 +3,10 @@
 A stream is a sequence of binary planes ``S(x, τ)`` read out at ``rate_hz``
 (20 000 planes/s for the spike camera, §3).  In memory it is a ``(T, H, W)
 uint8`` array of 0/1, row 0 at the top.  From a ``.dat`` file it is the
-memory-mapped packed bytes ``(T, H*Wf/8) uint8`` (see :mod:`spikeref.io.dat`):
+memory-mapped packed bytes ``(T, H*Wf/8) uint8`` (the layout is :mod:`spikeref.io.dat`'s):
 nothing is read until a window is asked for, so a 25 GB recording opens
-instantly and is read one window at a time.
+instantly and is read one window at a time.  :func:`read_dat`, :func:`load_spikes` and
+:func:`open_spike_file` open spike files as streams.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ from typing import Iterator
 import numpy as np
 
 from spikeref.bayer import validate_cfa
+from spikeref.io.dat import check_spikes, map_dat, plane_nbytes, read_sidecar, unpack_planes
 
-__all__ = ["SpikeStream", "as_stream"]
+__all__ = ["SpikeStream", "as_stream", "read_dat", "load_spikes", "open_spike_file"]
 
 
 class SpikeStream:
@@ -71,8 +73,6 @@ class SpikeStream:
     @classmethod
     def from_array(cls, spikes, cfa: str | None = None, rate_hz: float = 20000.0, path=None, check: bool = True):
         """Wrap a ``(T, H, W)`` array of 0/1 (uint8 or bool); no copy when uint8."""
-        from spikeref.io.dat import check_spikes
-
         arr = check_spikes(spikes, check_values=check)
         _, h, w = arr.shape
         return cls(
@@ -86,8 +86,6 @@ class SpikeStream:
         cfa: str | None = None, rate_hz: float = 20000.0, path=None,
     ):
         """Wrap packed ``.dat`` bytes ``(T, H*Wf/8) uint8`` (a memmap or an array)."""
-        from spikeref.io.dat import plane_nbytes
-
         file_width = width if file_width is None else file_width
         nbytes = plane_nbytes(height, file_width)
         packed = np.asarray(packed) if not isinstance(packed, np.memmap) else packed
@@ -155,8 +153,6 @@ class SpikeStream:
         self._check_range(start, length)
         if self._array is not None:
             return self._array[start : start + length]
-        from spikeref.io.dat import unpack_planes
-
         return unpack_planes(
             np.asarray(self._packed[start : start + length]),
             self.height, self.width, self.file_width, self.col_offset,
@@ -223,3 +219,147 @@ def as_stream(spikes, cfa: str | None = None) -> SpikeStream:
     if isinstance(spikes, SpikeStream):
         return spikes
     return SpikeStream.from_array(spikes, cfa=cfa)
+
+
+def read_dat(
+    path,
+    height: int = 250,
+    width: int = 400,
+    cfa: str | None = None,
+    *,
+    file_width: int | None = None,
+    col_offset: int = 0,
+    rate_hz: float = 20000.0,
+):
+    """Memory-map a ``.dat`` spike file as a :class:`~spikeref.stream.SpikeStream`.
+
+    Parameters
+    ----------
+    path : str or Path
+    height, width : int
+        Image size in pixels (the file has no header; 250×400 classic mono
+        cameras, 1000×1000 colour cameras).
+    cfa : str or None
+        Bayer pattern of the upright image (``RGGB``…); ``None`` for mono.
+    file_width : int, optional
+        Stored row width when rows are wider than the image (e.g. 1024);
+        columns ``[col_offset, col_offset + width)`` are kept.
+    rate_hz : float
+        Readout rate, planes per second (20 000 for the spike camera).
+
+    Raises
+    ------
+    FileNotFoundError, ValueError
+        The message names the file, the expected plane size and the size found.
+    """
+    path = Path(path)
+    file_width = width if file_width is None else file_width
+    if file_width < width + col_offset or col_offset < 0:
+        raise ValueError(
+            f"file_width ({file_width}) must be at least width + col_offset ({width} + {col_offset})"
+        )
+    packed = map_dat(path, height, file_width)
+    return SpikeStream.from_packed(
+        packed,
+        height=height,
+        width=width,
+        file_width=file_width,
+        col_offset=col_offset,
+        cfa=cfa,
+        rate_hz=rate_hz,
+        path=path,
+    )
+
+
+def _optional_count(name: str, value):
+    """``value`` if it is a whole number ≥ 1, None if it is None (not given); else a ValueError naming ``name``.
+
+    0 is a value, never "not given": it is refused, not replaced by a default.
+    """
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise ValueError(f"{name} must be a whole number ≥ 1, or None for the default; got {value!r}")
+    return int(value)
+
+
+def _optional_rate(name: str, value):
+    """``value`` if it is a finite number > 0, None if it is None (not given); else a ValueError naming ``name``."""
+    if value is None:
+        return None
+    if (isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating))
+            or not np.isfinite(value) or value <= 0):
+        raise ValueError(f"{name} must be a positive number of planes per second, or None for the default; "
+                         f"got {value!r}")
+    return float(value)
+
+
+def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, **kw):
+    """Open a spike file by its suffix: ``.dat`` (memory-mapped), ``.npy`` or ``.npz``.
+
+    ``.npy`` holds a ``(T, H, W)`` array; ``.npz`` a key ``spikes`` (or a
+    single array).  For ``.dat`` the size must be given; ``None`` (not given) means the
+    default 250×400, and 0 is refused (ValueError naming the argument).
+    """
+
+
+    path = Path(path)
+    suffix = path.suffix.lower()
+    height, width = _optional_count("height", height), _optional_count("width", width)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such spike file: {path}")
+    if suffix == ".dat":
+        return read_dat(path, 250 if height is None else height, 400 if width is None else width, cfa, **kw)
+    if suffix == ".npy":
+        arr = np.load(path, mmap_mode="r")
+    elif suffix == ".npz":
+        with np.load(path) as data:
+            keys = list(data.files)
+            key = "spikes" if "spikes" in keys else (keys[0] if len(keys) == 1 else None)
+            if key is None:
+                raise ValueError(f"{path}: expected a key 'spikes' or a single array; found keys {keys}")
+            arr = data[key]
+    else:
+        raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")
+    arr = check_spikes(arr, name=f"spikes in {path.name}")
+    return SpikeStream.from_array(arr, cfa=cfa, path=path, **{k: v for k, v in kw.items() if k == "rate_hz"})
+
+
+def open_spike_file(path, height: int | None = None, width: int | None = None, cfa: str | None = None,
+                    file_width: int | None = None, rate_hz: float | None = None):
+    """Open a spike file, taking what is not given from its ``NAME.json`` sidecar (``.dat``).
+
+    Arguments override the sidecar; without either, ``.dat`` defaults to 250×400 mono at
+    20 kHz.  ``cfa="mono"`` means no colour filter.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.dat``, ``.npy`` or ``.npz`` spike file.
+    height, width, file_width : int or None
+        Image size and stored row width in pixels (``.dat`` only); ``None`` means not given
+        (the sidecar's value, else 250×400 and ``file_width = width``).
+    cfa : str or None
+        Bayer pattern (``"RGGB"`` …) or ``"mono"``; ``None`` means not given.
+    rate_hz : float or None
+        Readout rate, planes per second; ``None`` means not given (the sidecar's, else 20 000).
+
+    Raises
+    ------
+    ValueError
+        A size of 0 or less, a non-integer size or a rate that is not a positive number: 0 is a
+        value, never "not given"; the message names the argument.
+    """
+    path = Path(path)
+    height, width = _optional_count("height", height), _optional_count("width", width)
+    file_width, rate_hz = _optional_count("file_width", file_width), _optional_rate("rate_hz", rate_hz)
+    meta = read_sidecar(path) if path.suffix.lower() == ".dat" else {}
+    cfa = cfa if cfa is not None else meta.get("cfa")
+    if isinstance(cfa, str) and cfa.lower() == "mono":
+        cfa = None
+    kw = {"rate_hz": rate_hz if rate_hz is not None else meta.get("rate_hz", 20000.0)}
+    if path.suffix.lower() == ".dat":
+        kw["file_width"] = file_width if file_width is not None else meta.get("file_width")
+        return load_spikes(path, height=height if height is not None else meta.get("height", 250),
+                           width=width if width is not None else meta.get("width", 400), cfa=cfa, **kw)
+    return load_spikes(path, cfa=cfa, **kw)

@@ -961,3 +961,15 @@ def test_the_oracle_constants_are_the_kernel_s():
     kernel = importlib.import_module("spikeref.align")
     assert (o_align.LK_ITERATIONS, o_align.SMOOTHNESS_SWEEPS, o_align.ZERO_TEST_BOX) == (
         kernel.LK_ITERATIONS, kernel.SMOOTHNESS_SWEEPS, kernel.ZERO_TEST_BOX)
+
+
+def test_the_oracle_states_the_kernels_constants_and_defaults_on_its_own():
+    # The oracle reads no fast code: its tolerances and the paper's defaults are written out there.
+    # They must be the kernel's, or an agreement test between the two would compare different rules.
+    import dataclasses
+
+    import spikeref.align as fast
+    import spikeref.oracles.align as literal
+
+    assert literal.PD_TOLERANCE == fast.PD_TOLERANCE and literal.SLACK == fast.SLACK
+    assert vars(literal.PAPER_ALIGN) == dataclasses.asdict(fast.AlignParams())

@@ -6,7 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spikeref.accumulate import accumulate
-from spikeref.io.dat import load_spikes, pack_planes, read_dat, save_spikes, unpack_planes, write_dat
+from spikeref.io.dat import pack_planes, save_spikes, unpack_planes, write_dat
+from spikeref.stream import load_spikes, read_dat
 from spikeref.oracles import pack_dat_oracle, unpack_dat_oracle
 
 
@@ -125,7 +126,7 @@ def test_a_huge_file_opens_without_being_read(tmp_path):
 @pytest.mark.parametrize("value", [0, -1, True])
 def test_open_spike_file_refuses_zero_and_none_means_not_given(tmp_path, rng, name, value):
     # 0 is a value, never "not given": refused with the argument's name, for .dat and .npy alike.
-    from spikeref.io.dat import open_spike_file
+    from spikeref.stream import open_spike_file
 
     spikes = (rng.random((6, 4, 8)) < 0.3).astype(np.uint8)
     for suffix in (".dat", ".npy"):

@@ -91,6 +91,46 @@ def test_chunks_run_anywhere_equal_one_run(recording, tmp_path, monkeypatch):
     _assert_identical(tmp_path / "chunks", single)
 
 
+def test_chunks_run_the_papers_procedure_too(recording, tmp_path):
+    # guard="off", shrink=False and ReconstructParams.paper() reach the chunk's denoiser: the chunks
+    # equal one run of the paper's procedure in this process, and differ from the defaults' frames.
+    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.pipeline import Reconstructor
+    from spikeref.stream import open_spike_file
+
+    path, single = recording
+    p = ReconstructParams.paper()
+    for c in plan_chunks(frame_range(PLANES), p, 5):
+        reconstruct_chunk(str(path), {}, p, c, str(tmp_path), guard="off", shrink=False)
+    rec = Reconstructor(open_spike_file(path), p, Denoiser.load(mode=p.mode, guard="off", shrink=False))
+    got = _frames(tmp_path)
+    assert len(got) == len(frame_range(PLANES))
+    for frame in rec.frames():
+        np.testing.assert_array_equal(got[exr_name(frame.index)], frame.rgb)
+    assert not np.array_equal(got[exr_name(5)], _frames(single)[exr_name(5)])
+
+
+def test_cli_passes_the_denoiser_options_to_the_workers(recording, tmp_path, monkeypatch):
+    import spikeref.distributed as dist
+
+    seen = {}
+
+    def fake(path, exr_dir, params, **kw):
+        seen.update(kw, params=params)
+        return []
+
+    monkeypatch.setattr(dist, "reconstruct_distributed", fake)
+    monkeypatch.setattr(dist, "assemble_video", lambda *a, **k: None)
+    path, _ = recording
+    assert main(["reconstruct", str(path), "--paper", "--workers", "1", "--exr-dir", str(tmp_path / "e")]) == 0
+    assert seen["params"] == ReconstructParams.paper() and (seen["guard"], seen["shrink"]) == ("off", False)
+    assert main(["reconstruct", str(path), "--guard", "off", "--no-shrink", "--workers", "1",
+                 "--exr-dir", str(tmp_path / "f")]) == 0
+    assert seen["params"] == ReconstructParams() and (seen["guard"], seen["shrink"]) == ("off", False)
+    assert main(["reconstruct", str(path), "--workers", "1", "--exr-dir", str(tmp_path / "g")]) == 0
+    assert (seen["guard"], seen["shrink"]) == ("sure", True)
+
+
 @pytest.fixture(scope="module")
 def client():
     distributed = pytest.importorskip("dask.distributed")

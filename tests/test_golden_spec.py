@@ -112,3 +112,60 @@ def test_no_document_cites_the_design_notes():
         assert "DESIGN §" not in path.read_text(encoding="utf-8"), (
             f"{path.relative_to(ROOT)} cites the design notes (DESIGN §…), which are not in the repository: "
             "cite docs/equations.md or docs/spec/ instead")
+
+
+# ----------------------------------------------------------------------------- the audit map agrees with the registry
+def _audit_table() -> list[list[str]]:
+    """The rows of docs/equations.md's table (equation → function → oracle → tests → golden)."""
+    lines = (ROOT / "docs" / "equations.md").read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("| eq. |"))
+    rows = []
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append(line)
+    return rows
+
+
+def _resolves(name: str) -> bool:
+    """``name`` (``spikeref.x.y``, or short: ``oracles.x.y``, ``effects.f`` …) is an attribute of an importable module."""
+    import importlib
+
+    for prefix in ("spikeref.", "spikeref.simulate.", "spikeref.denoise."):
+        full = name if name.startswith("spikeref.") else prefix + name
+        parts = full.split(".")
+        for i in range(len(parts), 1, -1):
+            try:
+                obj = importlib.import_module(".".join(parts[:i]))
+            except ImportError:
+                continue
+            try:
+                for attr in parts[i:]:
+                    obj = getattr(obj, attr)
+                return True
+            except AttributeError:
+                break
+    return False
+
+
+def test_audit_map_names_every_golden_file_and_no_other():
+    named = set(re.findall(r"`([\w]+)\.npz`", "\n".join(_audit_table())))
+    assert named == {c.name for c in CASES}
+
+
+DOTTED = r"`((?:spikeref|oracles|simulate|effects|denoise|align|warp|bayer|pipeline)\.[A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*)"
+
+
+def test_audit_map_and_registry_name_only_what_exists():
+    """Every dotted function or oracle named in docs/equations.md's table and in the golden registry is there."""
+    names = set(re.findall(DOTTED, "\n".join(_audit_table())))
+    for case in CASES:
+        names |= set(re.findall(r"(spikeref\.[A-Za-z_]\w*(?:\.[A-Za-z_]\w*)+)", case.function + " " + case.oracle))
+    assert len(names) > 60  # the table names about sixty; a broken pattern would find none
+    assert sorted(n for n in names if not _resolves(n)) == []
+
+
+def test_the_name_check_sees_a_stale_name():
+    assert _resolves("spikeref.align.align_tiles") and _resolves("effects.noise_fraction")
+    assert _resolves("oracles.align.align_tiles_oracle")
+    assert not _resolves("spikeref.align._noise_correlation_gone") and not _resolves("spikeref.io.dat.read_dat")

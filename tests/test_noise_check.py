@@ -11,7 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spikeref.bayer import cfa_channel_map
-from spikeref.io.dat import read_dat, write_dat
+from spikeref.io.dat import write_dat
+from spikeref.stream import read_dat
 from spikeref.noise_check import DEFAULT_MIN_SPIKES, NoiseCheck, noise_check, plot_noise_check
 
 nc = importlib.import_module("spikeref.noise_check")  # the module (the package re-exports the function by its name)

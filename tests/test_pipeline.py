@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import spikeref.accumulate as acc_mod
+import spikeref.pipeline as pipeline_mod
 from spikeref.accumulate import accumulate
 from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
 from spikeref.pipeline import (
@@ -165,7 +166,7 @@ def test_reads_only_the_support_and_rings_stay_bounded(sample, monkeypatch, warp
         seen.append(start // window)
         return real(stream, window, start, count, out)
 
-    monkeypatch.setattr(acc_mod, "window_counts", spy)
+    monkeypatch.setattr(pipeline_mod, "window_counts", spy)  # the pipeline's own name for Eq. 4
     params = ReconstructParams(window=10, K=3, L=3, warp=warp, accumulate="count")  # Eq. 4, window by window
     rec = Reconstructor(sample, params, denoiser=identity)
     from spikeref.pipeline import _State
@@ -174,9 +175,9 @@ def test_reads_only_the_support_and_rings_stay_bounded(sample, monkeypatch, warp
     for k in range(10, 14):
         state.output(k, False)
         state.evict(k + 1)
-        for level, ring in enumerate(state.levels):
-            assert len(ring) <= 2 * (params.L - level) * params.half + 1
-            if warp == "chained" and 0 < level < params.L:
+        for step, ring in enumerate(state.rings):
+            assert len(ring) <= 2 * (params.L - step) * params.half + 1
+            if warp == "chained" and 0 < step < params.L:
                 assert not ring  # no frame of the steps between is made
         assert len(state.step0) <= 2 * (params.L - 1) * params.half + 1
     assert sorted(seen) == list(range(10 - 3, 14 + 3))  # each window read once, only the support of 10:14

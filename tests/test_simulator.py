@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from spikeref.io.dat import read_dat
+from spikeref.stream import read_dat
 from spikeref.simulate.recording import gt_exr_name, simulate_to_dat
 from spikeref.simulate.simulator import BLOCK, Simulation, ground_truth, iter_simulation, readout_radiance, simulate
 from tests.scene_doubles import Drifting, Flat, scene

@@ -363,7 +363,8 @@ def test_long_memory_mapped_recording_streams_in_bounded_memory(tmp_path):
     """200 000 planes of an 8×8 RGGB frame from a .dat: the traced peak does not grow with length."""
     import tracemalloc
 
-    from spikeref.io.dat import DatWriter, read_dat
+    from spikeref.io.dat import DatWriter
+    from spikeref.stream import read_dat
     from spikeref.pipeline import ReconstructParams, Reconstructor
 
     planes, h, w = 200_000, 8, 8

@@ -52,7 +52,8 @@ def _rss_file_kib() -> int:
 
 @pytest.mark.skipif(not __import__("os").path.exists("/proc/self/status"), reason="needs Linux /proc")
 def test_release_drops_mapped_pages_and_keeps_data(tmp_path, rng):
-    from spikeref.io.dat import read_dat, write_dat
+    from spikeref.io.dat import write_dat
+    from spikeref.stream import read_dat
 
     spikes = (rng.random((2048, 64, 128)) < 0.3).astype(np.uint8)  # 2048 planes × 1 KiB = 2 MiB
     write_dat(tmp_path / "x.dat", spikes)

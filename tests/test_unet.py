@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spikeref.denoise.unet import UNet, UNetSpec, conv3x3, conv3x3_im2col, conv3x3_plain, layer_shapes
-from spikeref.oracles.unet import unet_forward_oracle
+from spikeref.oracles.unet import conv3x3_oracle, unet_forward_oracle
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden" / "unet_forward.npz"
 
@@ -30,18 +30,19 @@ def test_the_paper_counts_25_convolutions():
 @settings(max_examples=25, deadline=None)
 @given(n=st.integers(1, 2), cin=st.integers(1, 5), cout=st.integers(1, 9), h=st.integers(1, 9),
        w=st.integers(1, 9), slope=st.sampled_from([None, 0.0, 0.1]), seed=st.integers(0, 2**16))
-def test_conv_direct_and_im2col_equal_plain_reference(n, cin, cout, h, w, slope, seed):
+def test_conv_direct_im2col_and_plain_equal_the_oracle(n, cin, cout, h, w, slope, seed):
     # cout up to 9: the direct kernel works in groups of four output channels, the last one partial.
     rng = np.random.default_rng(seed)
     x = rng.standard_normal((n, cin, h, w)).astype(np.float32)
     wt = rng.standard_normal((cout, cin, 3, 3)).astype(np.float32)
     b = rng.standard_normal(cout).astype(np.float32)
-    expected = conv3x3_plain(x, wt, b, slope)
+    expected = conv3x3_oracle(x, wt, b, slope)
     np.testing.assert_allclose(conv3x3(x, wt, b, slope), expected, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(conv3x3_plain(x, wt, b, slope), expected, rtol=1e-5, atol=1e-5)
     np.testing.assert_allclose(_conv_im2col(x, wt, b, slope), expected, rtol=1e-5, atol=1e-5)
 
 
-@pytest.mark.parametrize("conv", [conv3x3, _conv_im2col], ids=["direct", "im2col"])
+@pytest.mark.parametrize("conv", [conv3x3, _conv_im2col, conv3x3_oracle], ids=["direct", "im2col", "oracle"])
 def test_conv_known_values(conv):
     # A centre-tap kernel of 2 and bias 1 doubles and shifts; the corner-tap kernel (dy=dx=0)
     # reads the pixel up-left of each output (zero outside): cross-correlation, as PyTorch.

@@ -37,6 +37,8 @@ __all__ = [
     "masked_volume",
     "mask_aware_average",
     "blindspot_denoise",
+    "check_cell",
+    "check_image",
 ]
 
 #: Weights of the 8 neighbours that fill a hidden pixel (before normalisation by their sum).
@@ -45,7 +47,8 @@ FILL_KERNEL = np.array([[0.5, 1.0, 0.5], [1.0, 0.0, 1.0], [0.5, 1.0, 0.5]])
 MODES = ("visible", "blind", "mixed")
 
 
-def _check_cell(cell) -> tuple[int, int]:
+def check_cell(cell) -> tuple[int, int]:
+    """The blind-spot cell ``(h_s, w_s)`` from an int or a pair; ``ValueError`` naming ``cell`` otherwise."""
     hs, ws = (cell, cell) if isinstance(cell, (int, np.integer)) else tuple(cell)
     for v in (hs, ws):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
@@ -53,7 +56,11 @@ def _check_cell(cell) -> tuple[int, int]:
     return int(hs), int(ws)
 
 
-def _check_image(image, name="image") -> np.ndarray:
+def check_image(image, name="image") -> np.ndarray:
+    """A float image ``(..., H, W)`` of firing rates, finite; the error names the argument ``name``.
+
+    The argument check shared by the denoiser's stages (masks, guard, residual shrinkage).
+    """
     arr = np.asarray(image)
     if arr.ndim < 2:
         raise ValueError(f"{name} must have shape (..., H, W); got {arr.shape}")
@@ -66,7 +73,7 @@ def _check_image(image, name="image") -> np.ndarray:
 
 def cell_masks(height: int, width: int, cell=4) -> np.ndarray:
     """The masks ``M_i``: ``(h_s w_s, H, W) bool``; mask ``i`` is True at ``(i // w_s, i % w_s)`` of every cell."""
-    hs, ws = _check_cell(cell)
+    hs, ws = check_cell(cell)
     y = np.arange(height)[:, None] % hs
     x = np.arange(width)[None, :] % ws
     index = y * ws + x
@@ -78,7 +85,7 @@ def neighbour_fill(image: np.ndarray) -> np.ndarray:
 
     ``image`` is ``(..., H, W)`` float; the result has the same shape and dtype.
     """
-    img = _check_image(image)
+    img = check_image(image)
     h, w = img.shape[-2:]
     acc = np.zeros(img.shape, dtype=np.float64)
     wsum = np.zeros((h, w), dtype=np.float64)
@@ -102,7 +109,7 @@ def masked_volume(image: np.ndarray, cell=4) -> np.ndarray:
     ``Ω_i`` equals ``image`` except at the pixels mask ``i`` hides, which hold
     :func:`neighbour_fill` of ``image``.
     """
-    img = _check_image(image)
+    img = check_image(image)
     h, w = img.shape[-2:]
     masks = cell_masks(h, w, cell)
     fill = neighbour_fill(img)
@@ -115,7 +122,7 @@ def mask_aware_average(outputs: np.ndarray, masks: np.ndarray) -> np.ndarray:
     ``outputs`` is ``(C, ..., H, W)``, ``masks`` ``(C, H, W)`` (bool or 0/1).  Every pixel must
     be hidden by at least one mask (true of :func:`cell_masks`).
     """
-    out = _check_image(outputs, "outputs")
+    out = check_image(outputs, "outputs")
     m = np.asarray(masks, dtype=out.dtype)
     if m.ndim != 3 or m.shape[0] != out.shape[0] or m.shape[1:] != out.shape[-2:]:
         raise ValueError(f"masks must have shape (C, H, W) = ({out.shape[0]}, {out.shape[-2]}, {out.shape[-1]}); "
@@ -149,7 +156,7 @@ def blindspot_denoise(image: np.ndarray, network: Callable[[np.ndarray], np.ndar
     -------
     ndarray, the shape and dtype of ``image``.
     """
-    img = _check_image(image)
+    img = check_image(image)
     if mode not in MODES:
         raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
     if not (np.isfinite(lam) and lam >= 0):

@@ -18,8 +18,10 @@ from typing import Iterator
 
 import numpy as np
 
-from spikeref.charge import ACCUMULATE
-from spikeref.denoise.blindspot import MODES, _check_cell, blindspot_denoise
+from spikeref.accumulate import accumulate as eq4
+from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
+from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, charge_rates
+from spikeref.denoise.blindspot import MODES, blindspot_denoise, check_cell
 from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, carried_excess_variance, sure_blend
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
@@ -99,9 +101,9 @@ class Denoiser:
         if (isinstance(lam, bool) or not isinstance(lam, (int, float, np.integer, np.floating))
                 or not np.isfinite(lam) or lam < 0):
             raise ValueError(f"lam (λ of the mixed mode) must be a finite number ≥ 0; got {lam!r}")
-        cell_hw = _check_cell(cell)
+        cell_hw = check_cell(cell)
         trained = unet.meta.get("config", {}).get("cell")
-        if trained is not None and _check_cell(trained) != cell_hw:
+        if trained is not None and check_cell(trained) != cell_hw:
             raise ValueError(f"cell={cell!r} differs from the cell the weights were trained with ({trained!r}); "
                              "the blind and mixed modes must hide pixels as in training")
         self.unet, self.mode, self.lam, self.cell, self.shrink = unet, mode, float(lam), cell, bool(shrink)
@@ -217,10 +219,6 @@ class Denoiser:
         (:func:`spikeref.charge.charge_rates`; not in the paper) instead of Eq. 4's count, and the
         short window's charge for the guard.
         """
-        from spikeref.accumulate import accumulate as eq4
-        from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
-        from spikeref.charge import WINDOWS_PER_CALL, charge_rates
-
         if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
             raise ValueError(f"window must be a positive number of planes; got {window!r}")
         if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:

@@ -72,7 +72,7 @@ from __future__ import annotations
 import numpy as np
 
 from spikeref.charge import ACCUMULATE
-from spikeref.denoise.blindspot import _check_image
+from spikeref.denoise.blindspot import check_image
 from spikeref.noise_level import immerkaer_response
 
 __all__ = ["GUARDS", "DEFAULT_RADIUS", "PROBE_SEED", "NOISE_KEEP", "NOISE_WINDOW", "noise_sigma",
@@ -131,7 +131,7 @@ def noise_sigma(planes, keep: float = None) -> np.ndarray:
     keep = NOISE_KEEP if keep is None else keep
     if isinstance(keep, bool) or not isinstance(keep, (int, float, np.integer, np.floating)) or not 0 < keep <= 1:
         raise ValueError(f"keep must be a fraction in (0, 1]; got {keep!r}")
-    arr = _check_image(planes, "planes").astype(np.float64)
+    arr = check_image(planes, "planes").astype(np.float64)
     lead = arr.shape[:-2]
     if arr.shape[-2] < 3 or arr.shape[-1] < 3:
         return np.zeros(lead)
@@ -178,9 +178,9 @@ def sure_alpha(noisy, denoised, probed, probe, eps, sigma, radius: int = DEFAULT
     -------
     ndarray ``(..., h, w)`` float64 in ``[0, 1]``.
     """
-    y = _check_image(noisy, "noisy").astype(np.float64)
-    f = _check_image(denoised, "denoised").astype(np.float64)
-    fb = _check_image(probed, "probed").astype(np.float64)
+    y = check_image(noisy, "noisy").astype(np.float64)
+    f = check_image(denoised, "denoised").astype(np.float64)
+    fb = check_image(probed, "probed").astype(np.float64)
     b = np.asarray(probe, dtype=np.float64)
     for name, arr in (("denoised", f), ("probed", fb), ("probe", b)):
         if arr.shape != y.shape:
@@ -248,7 +248,7 @@ def carried_excess_variance(short, short_window: float, window: float, accumulat
     ndarray ``(...)`` float64
         One variance per plane, in rate units² at ``window``.
     """
-    y = _check_image(short, "short").astype(np.float64)
+    y = check_image(short, "short").astype(np.float64)
     for name, value in (("short_window", short_window), ("window", window)):
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                 or not np.isfinite(value) or value <= 0:
@@ -290,7 +290,7 @@ def sure_blend(noisy, denoise, radius: int = DEFAULT_RADIUS, sigma=None,
     blended : ndarray float32, ``noisy``'s shape
     alpha : ndarray float64, the weight of ``f(y)`` per pixel
     """
-    y = _check_image(noisy, "noisy").astype(np.float32)
+    y = check_image(noisy, "noisy").astype(np.float32)
     sig = noise_sigma(y) if sigma is None else np.broadcast_to(np.asarray(sigma, dtype=np.float64), y.shape[:-2])
     if np.any(~np.isfinite(sig)) or np.any(sig < 0):
         raise ValueError(f"sigma must be finite and ≥ 0; got {sigma!r}")

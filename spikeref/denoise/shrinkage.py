@@ -40,8 +40,8 @@ from __future__ import annotations
 import numpy as np
 
 from spikeref._jit import njit
-from spikeref.bayer import _reflect
-from spikeref.denoise.blindspot import _check_image
+from spikeref.bayer import reflect_index
+from spikeref.denoise.blindspot import check_image
 
 __all__ = ["shrink_residual", "residual_noise_variance"]
 
@@ -72,13 +72,13 @@ def _shrink_residual(noisy, denoised, inv_window, radius, out):
             for x in range(w):
                 s = 0.0
                 for dx in range(-radius, radius + 1):
-                    s += r2[y, _reflect(x + dx, w)]  # half-sample symmetric, like Ψ
+                    s += r2[y, reflect_index(x + dx, w)]  # half-sample symmetric, like Ψ
                 rows[y, x] = s
         for y in range(h):
             for x in range(w):
                 s = 0.0
                 for dy in range(-radius, radius + 1):
-                    s += rows[_reflect(y + dy, h), x]
+                    s += rows[reflect_index(y + dy, h), x]
                 energy = s * inv_area
                 d = np.float64(denoised[c, y, x])
                 p = min(max(d, lo), hi)
@@ -107,8 +107,8 @@ def shrink_residual(noisy, denoised, window: float, radius: int = 1) -> np.ndarr
     ndarray, same shape, float32: ``D(I) + g (I − D(I))`` with ``g ∈ [0, 1]`` per pixel, so each
     value lies between ``D(I)`` and ``I``.
     """
-    a = _check_image(noisy, "noisy")
-    d = _check_image(denoised, "denoised")
+    a = check_image(noisy, "noisy")
+    d = check_image(denoised, "denoised")
     if a.shape != d.shape:
         raise ValueError(f"noisy and denoised must have the same shape; got {a.shape} and {d.shape}")
     if isinstance(window, bool) or not isinstance(window, (int, float, np.integer, np.floating)) \

@@ -54,11 +54,12 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from spikeref.charge import ACCUMULATE
+from spikeref.charge import ACCUMULATE, DEFAULT_MARGIN, window_charge
 from spikeref.denoise.blindspot import FILL_KERNEL, cell_masks
 from spikeref.denoise.revisible import lambda_schedule, revisible_loss_torch
 from spikeref.denoise.torch_unet import TorchUNet, to_numpy_unet
 from spikeref.denoise.unet import UNetSpec
+from spikeref.io.atomic import atomic_write
 
 #: What the network can be trained on (:attr:`TrainConfig.input_domain`).
 INPUT_DOMAINS = ("count", "rate")
@@ -223,8 +224,6 @@ class CropSampler:
 
     def _charge(self, stream, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
         """The charge (:func:`spikeref.charge.window_charge`) of planes ``[t, t+w)`` over the crop."""
-        from spikeref.charge import DEFAULT_MARGIN, window_charge
-
         s = 2 * self.patch
         lo, hi = max(0, t - DEFAULT_MARGIN), min(len(stream), t + w + DEFAULT_MARGIN)
         if stream.array is not None:
@@ -384,8 +383,6 @@ def _learning_rate(cfg: TrainConfig, step: int) -> float:
 
 
 def _save_checkpoint(path: Path, state: dict) -> None:
-    from spikeref.io.atomic import atomic_write
-
     def write(tmp):
         torch.save(state, tmp)
 

@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from spikeref._jit import njit, prange
+from spikeref.io.atomic import atomic_write
 
 __all__ = ["UNetSpec", "UNet", "layer_shapes", "conv3x3", "conv3x3_im2col", "conv3x3_plain", "WEIGHTS_FORMAT"]
 
@@ -445,8 +446,6 @@ class UNet:
 
     def save(self, path) -> Path:
         """Write the weights ``.npz`` (atomically)."""
-        from spikeref.io.atomic import atomic_write
-
         path = Path(path)
         arrays = {
             "format": np.array(WEIGHTS_FORMAT), "width": np.array(self.spec.width),

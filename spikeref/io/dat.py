@@ -1,4 +1,6 @@
-"""The spike-camera ``.dat`` layout, and ``.npy``/``.npz`` spike files.
+"""The spike-camera ``.dat`` layout, and writing ``.dat``/``.npy``/``.npz`` spike files.
+
+This module handles bytes only; opening a file as a stream is :mod:`spikeref.stream`'s.
 
 Layout (the one SpikeCV, Spike-Zoo and Spk2ImgNet read; ``docs/spec/io.md``)
 -----------------------------------------------------------------
@@ -9,9 +11,9 @@ Layout (the one SpikeCV, Spike-Zoo and Spk2ImgNet read; ``docs/spec/io.md``)
   ``p // 8`` (LSB first);
 * rows are stored bottom-up: stored row ``r`` is image row ``H - 1 - r``.
 
-Reading never loads the file: :func:`read_dat` memory-maps it and returns a
-:class:`~spikeref.stream.SpikeStream`; planes are unpacked only when a window
-is asked for, and Eq. 4 counts are taken from the packed bytes directly
+Reading never loads the file: :func:`map_dat` memory-maps it (and
+:func:`spikeref.stream.read_dat` wraps the map in a :class:`~spikeref.stream.SpikeStream`);
+planes are unpacked only when a window is asked for, and Eq. 4 counts are taken from the packed bytes directly
 (:func:`spikeref.accumulate.accumulate`).  Writing is atomic: a temporary
 file in the same folder, renamed over the target when complete.
 """
@@ -26,13 +28,12 @@ from spikeref.io.atomic import atomic_write, publish, temporary_beside
 
 __all__ = [
     "plane_nbytes",
+    "check_spikes",
     "pack_planes",
     "unpack_planes",
-    "read_dat",
+    "map_dat",
     "write_dat",
     "DatWriter",
-    "load_spikes",
-    "open_spike_file",
     "read_sidecar",
     "save_spikes",
 ]
@@ -97,45 +98,19 @@ def unpack_planes(
     return np.ascontiguousarray(bits[:, ::-1, col_offset : col_offset + width])
 
 
-def read_dat(
-    path,
-    height: int = 250,
-    width: int = 400,
-    cfa: str | None = None,
-    *,
-    file_width: int | None = None,
-    col_offset: int = 0,
-    rate_hz: float = 20000.0,
-):
-    """Memory-map a ``.dat`` spike file as a :class:`~spikeref.stream.SpikeStream`.
+def map_dat(path, height: int = 250, file_width: int = 400) -> np.ndarray:
+    """Memory-map a ``.dat`` spike file as its packed planes ``(T, height·file_width/8) uint8``.
 
-    Parameters
-    ----------
-    path : str or Path
-    height, width : int
-        Image size in pixels (the file has no header; 250×400 classic mono
-        cameras, 1000×1000 colour cameras).
-    cfa : str or None
-        Bayer pattern of the upright image (``RGGB``…); ``None`` for mono.
-    file_width : int, optional
-        Stored row width when rows are wider than the image (e.g. 1024);
-        columns ``[col_offset, col_offset + width)`` are kept.
-    rate_hz : float
-        Readout rate, planes per second (20 000 for the spike camera).
+    Nothing is read: the bytes stay on disk until a window is asked for.  The file must hold a
+    whole number of planes.  :func:`spikeref.stream.read_dat` wraps the result in a
+    :class:`~spikeref.stream.SpikeStream`.
 
     Raises
     ------
     FileNotFoundError, ValueError
         The message names the file, the expected plane size and the size found.
     """
-    from spikeref.stream import SpikeStream
-
     path = Path(path)
-    file_width = width if file_width is None else file_width
-    if file_width < width + col_offset or col_offset < 0:
-        raise ValueError(
-            f"file_width ({file_width}) must be at least width + col_offset ({width} + {col_offset})"
-        )
     nbytes = plane_nbytes(height, file_width)
     if not path.is_file():
         raise FileNotFoundError(f"no such .dat file: {path}")
@@ -148,17 +123,7 @@ def read_dat(
             f"({nbytes} bytes each; {size // nbytes} whole planes and {size % nbytes} bytes left over). "
             "Check --height/--width (and --file-width for cameras with padded rows)."
         )
-    packed = np.memmap(path, dtype=np.uint8, mode="r", shape=(size // nbytes, nbytes))
-    return SpikeStream.from_packed(
-        packed,
-        height=height,
-        width=width,
-        file_width=file_width,
-        col_offset=col_offset,
-        cfa=cfa,
-        rate_hz=rate_hz,
-        path=path,
-    )
+    return np.memmap(path, dtype=np.uint8, mode="r", shape=(size // nbytes, nbytes))
 
 
 class DatWriter:
@@ -225,75 +190,21 @@ def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
     Parameters
     ----------
     path : str or Path
-    spikes : ndarray ``(T, H, W)`` 0/1, or a SpikeStream
-        A stream is written window by window (memory bounded by
-        ``chunk_planes``).
+    spikes : ndarray ``(T, H, W)`` 0/1, or a :class:`~spikeref.stream.SpikeStream`
+        A stream (anything with ``height``, ``width``, ``len()`` and ``window(start, n)``) is
+        written window by window, memory bounded by ``chunk_planes``.
     """
-    from spikeref.stream import SpikeStream
-
-    if isinstance(spikes, SpikeStream):
-        stream = spikes
+    if isinstance(spikes, np.ndarray) or not hasattr(spikes, "window"):
+        spikes = check_spikes(spikes)
+        height, width, total = spikes.shape[1], spikes.shape[2], spikes.shape[0]
+        def window(start, n):
+            return spikes[start:start + n]
     else:
-        stream = SpikeStream.from_array(check_spikes(spikes))
-    with DatWriter(path, stream.height, stream.width) as writer:
-        for start in range(0, len(stream), chunk_planes):
-            n = min(chunk_planes, len(stream) - start)
-            writer.append(stream.window(start, n))
+        height, width, total, window = spikes.height, spikes.width, len(spikes), spikes.window
+    with DatWriter(path, height, width) as writer:
+        for start in range(0, total, chunk_planes):
+            writer.append(window(start, min(chunk_planes, total - start)))
     return Path(path)
-
-
-def _optional_count(name: str, value):
-    """``value`` if it is a whole number ≥ 1, None if it is None (not given); else a ValueError naming ``name``.
-
-    0 is a value, never "not given": it is refused, not replaced by a default.
-    """
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise ValueError(f"{name} must be a whole number ≥ 1, or None for the default; got {value!r}")
-    return int(value)
-
-
-def _optional_rate(name: str, value):
-    """``value`` if it is a finite number > 0, None if it is None (not given); else a ValueError naming ``name``."""
-    if value is None:
-        return None
-    if (isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating))
-            or not np.isfinite(value) or value <= 0):
-        raise ValueError(f"{name} must be a positive number of planes per second, or None for the default; "
-                         f"got {value!r}")
-    return float(value)
-
-
-def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, **kw):
-    """Open a spike file by its suffix: ``.dat`` (memory-mapped), ``.npy`` or ``.npz``.
-
-    ``.npy`` holds a ``(T, H, W)`` array; ``.npz`` a key ``spikes`` (or a
-    single array).  For ``.dat`` the size must be given; ``None`` (not given) means the
-    default 250×400, and 0 is refused (ValueError naming the argument).
-    """
-    from spikeref.stream import SpikeStream
-
-    path = Path(path)
-    suffix = path.suffix.lower()
-    height, width = _optional_count("height", height), _optional_count("width", width)
-    if not path.is_file():
-        raise FileNotFoundError(f"no such spike file: {path}")
-    if suffix == ".dat":
-        return read_dat(path, 250 if height is None else height, 400 if width is None else width, cfa, **kw)
-    if suffix == ".npy":
-        arr = np.load(path, mmap_mode="r")
-    elif suffix == ".npz":
-        with np.load(path) as data:
-            keys = list(data.files)
-            key = "spikes" if "spikes" in keys else (keys[0] if len(keys) == 1 else None)
-            if key is None:
-                raise ValueError(f"{path}: expected a key 'spikes' or a single array; found keys {keys}")
-            arr = data[key]
-    else:
-        raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")
-    arr = check_spikes(arr, name=f"spikes in {path.name}")
-    return SpikeStream.from_array(arr, cfa=cfa, path=path, **{k: v for k, v in kw.items() if k == "rate_hz"})
 
 
 def read_sidecar(path) -> dict:
@@ -310,46 +221,6 @@ def read_sidecar(path) -> dict:
     if not isinstance(meta, dict):
         raise ValueError(f"{meta_path}: expected a JSON object")
     return meta
-
-
-def open_spike_file(path, height: int | None = None, width: int | None = None, cfa: str | None = None,
-                    file_width: int | None = None, rate_hz: float | None = None):
-    """Open a spike file, taking what is not given from its ``NAME.json`` sidecar (``.dat``).
-
-    Arguments override the sidecar; without either, ``.dat`` defaults to 250×400 mono at
-    20 kHz.  ``cfa="mono"`` means no colour filter.
-
-    Parameters
-    ----------
-    path : str or Path
-        A ``.dat``, ``.npy`` or ``.npz`` spike file.
-    height, width, file_width : int or None
-        Image size and stored row width in pixels (``.dat`` only); ``None`` means not given
-        (the sidecar's value, else 250×400 and ``file_width = width``).
-    cfa : str or None
-        Bayer pattern (``"RGGB"`` …) or ``"mono"``; ``None`` means not given.
-    rate_hz : float or None
-        Readout rate, planes per second; ``None`` means not given (the sidecar's, else 20 000).
-
-    Raises
-    ------
-    ValueError
-        A size of 0 or less, a non-integer size or a rate that is not a positive number: 0 is a
-        value, never "not given"; the message names the argument.
-    """
-    path = Path(path)
-    height, width = _optional_count("height", height), _optional_count("width", width)
-    file_width, rate_hz = _optional_count("file_width", file_width), _optional_rate("rate_hz", rate_hz)
-    meta = read_sidecar(path) if path.suffix.lower() == ".dat" else {}
-    cfa = cfa if cfa is not None else meta.get("cfa")
-    if isinstance(cfa, str) and cfa.lower() == "mono":
-        cfa = None
-    kw = {"rate_hz": rate_hz if rate_hz is not None else meta.get("rate_hz", 20000.0)}
-    if path.suffix.lower() == ".dat":
-        kw["file_width"] = file_width if file_width is not None else meta.get("file_width")
-        return load_spikes(path, height=height if height is not None else meta.get("height", 250),
-                           width=width if width is not None else meta.get("width", 400), cfa=cfa, **kw)
-    return load_spikes(path, cfa=cfa, **kw)
 
 
 def save_spikes(path, spikes) -> Path:

@@ -10,6 +10,7 @@ import glob
 from pathlib import Path
 
 import numpy as np
+from spikeref.io.exr import read_exr
 
 __all__ = ["read_frames", "IMAGE_SUFFIXES"]
 
@@ -93,8 +94,6 @@ def read_frames(path, max_frames: int | None = None) -> np.ndarray:
         for f in files[:max_frames]:
             try:
                 if f.suffix.lower() == ".exr":
-                    from spikeref.io.exr import read_exr
-
                     image = read_exr(f)
                 else:
                     image = iio.imread(f)

@@ -30,9 +30,12 @@ offsets).  Their constants (:data:`LK_ITERATIONS`,
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 __all__ = [
+    "PAPER_ALIGN",
     "gaussian_pyramid_oracle",
     "tile_distance_oracle",
     "nearest_tiles_oracle",
@@ -62,10 +65,24 @@ __all__ = [
 _TAPS = (1.0, 4.0, 6.0, 4.0, 1.0)
 
 
-def _default_params():
-    from spikeref.align import AlignParams
+#: The sub-pixel fit's ``A`` counts as positive definite when its smaller eigenvalue exceeds this
+#: fraction of the largest of the nine distances (and Lucas–Kanade's ``G`` when ``det G`` exceeds
+#: it times ``(trace G)²``): the specification's value, stated here on its own so that the oracle does
+#: not share a constant with the kernel it checks (``tests/test_align.py`` holds the two equal).
+PD_TOLERANCE = 1e-9
 
-    return AlignParams()
+#: The sub-pixel offset is accepted when ``|u*| ≤ 1 + SLACK`` in both components.
+SLACK = 1e-9
+
+#: The paper's alignment parameters (§4.2, HDR+'s pyramid), as :class:`spikeref.align.AlignParams`
+#: gives them by default; written out so the oracle reads no fast code (``tests/test_align.py``
+#: holds the two equal).
+PAPER_ALIGN = SimpleNamespace(levels=4, tile_by_step=(32, 16, 8), coarse_tile=8, search_radius=(1, 4, 4, 4),
+                              subpixel=True, prefer_centre=0.0, refine="quadratic", smoothness=0.0, zero_test=None)
+
+
+def _default_params():
+    return PAPER_ALIGN
 
 
 def _blur_decimate_oracle(img):
@@ -131,8 +148,6 @@ def quadratic_offset_oracle(d):
     """Least-squares fit ``D(u) ≈ ½uᵀAu + bᵀu + c`` on the grid ``u ∈ {−1,0,1}²``; ``u* = −A⁻¹b``,
     or None when ``A`` is not positive definite (smaller eigenvalue ≤ ``PD_TOLERANCE`` × the largest distance)
     or ``|u*| > 1`` (+ ``SLACK``) in a component."""
-    from spikeref.align import PD_TOLERANCE, SLACK
-
     rows, values = [], []
     for i, uy in enumerate((-1, 0, 1)):
         for j, ux in enumerate((-1, 0, 1)):
@@ -500,8 +515,6 @@ def lucas_kanade_oracle(ref, alt, oy, ox, tile, start, iterations=LK_ITERATIONS,
     ``info = (G_yy, G_yx, G_xx)`` of the last ``G`` summed (the tile's information, before the noise).
     ``gradient``: ``gradient_oracle(alt)`` when already made.
     """
-    from spikeref.align import PD_TOLERANCE
-
     h, w = alt.shape
     gy, gx = gradient_oracle(alt) if gradient is None else gradient
     u = np.array(start, np.float64)

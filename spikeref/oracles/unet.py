@@ -1,7 +1,8 @@
 """Literal NumPy transcription of the U-Net forward pass (:mod:`spikeref.denoise.unet`).
 
 Channel-first, one layer per line, every convolution a plain sum over its 9 taps
-(:func:`spikeref.denoise.unet.conv3x3_plain`), max-pooling and nearest upsampling written out.
+(:func:`conv3x3_oracle`), max-pooling and nearest upsampling written out.  It imports nothing
+from the network it checks.
 Slow; it freezes ``golden/unet_forward.npz``, which the fast network and the PyTorch twin
 (:mod:`spikeref.denoise.torch_unet`) must both reproduce.
 """
@@ -10,13 +11,32 @@ from __future__ import annotations
 
 import numpy as np
 
-from spikeref.denoise.unet import conv3x3_plain
+__all__ = ["unet_forward_oracle", "conv3x3_oracle"]
 
-__all__ = ["unet_forward_oracle"]
+
+def conv3x3_oracle(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
+    """A 3×3 convolution with zero padding, then LeakyReLU: ``out[n, o] = b[o] + Σ_c Σ_(dy,dx) w[o, c, dy, dx] ·
+    x[n, c, y + dy − 1, x + dx − 1]``, one sum per tap, in float32 as the network runs.
+
+    ``x`` is ``(N, Cin, H, W)``, ``weight`` PyTorch's ``(Cout, Cin, 3, 3)``; returns ``(N, Cout, H, W)``;
+    ``slope = None`` leaves out the LeakyReLU (the last layer).
+    """
+    n, cin, h, w = x.shape
+    padded = np.zeros((n, cin, h + 2, w + 2), dtype=np.float32)
+    padded[:, :, 1:-1, 1:-1] = x
+    out = np.empty((n, weight.shape[0], h, w), dtype=np.float32)
+    out[...] = bias[None, :, None, None]
+    for dy in range(3):
+        for dx in range(3):
+            tap = padded[:, :, dy : dy + h, dx : dx + w]
+            out += np.einsum("oc,nchw->nohw", weight[:, :, dy, dx].astype(np.float32), tap)
+    if slope is not None:
+        out = np.where(out >= 0, out, out * np.float32(slope)).astype(np.float32)
+    return out
 
 
 def _conv(params, name, x, slope):
-    return conv3x3_plain(x, params[f"{name}.weight"], params[f"{name}.bias"], slope)
+    return conv3x3_oracle(x, params[f"{name}.weight"], params[f"{name}.bias"], slope)
 
 
 def _max_pool(x):

@@ -118,7 +118,8 @@ def _fire(charge_per_readout, thresholds, state, spikes):
                         state[y, x] = state[y, x] % thresholds[y, x]
 
 
-def fire(charge: np.ndarray, threshold, state: np.ndarray) -> np.ndarray:
+def fire(charge: np.ndarray, threshold, state: np.ndarray, *, out: np.ndarray | None = None,
+         check: bool = True) -> np.ndarray:
     """Integrate-and-fire over readouts (Eq. 1–2), continuing from ``state``.
 
     Parameters
@@ -130,21 +131,32 @@ def fire(charge: np.ndarray, threshold, state: np.ndarray) -> np.ndarray:
     state : ndarray ``(H, W) float64``
         Accumulator at the start, in ``[0, E_th)``; updated in place so a long
         stream can be simulated chunk by chunk with identical results.
+    out : ndarray ``(T, H, W) uint8``, optional
+        Where to write the spikes (a block of a longer recording); a new array by default.
+    check : bool
+        ``False`` skips the scan of ``charge`` and ``threshold`` for finite, non-negative values,
+        for a caller that has made sure of them (the simulator checks radiance per readout and
+        every effect adds charge ≥ 0); shapes and dtypes are always checked.
 
     Returns
     -------
-    ndarray ``(T, H, W) uint8`` of 0/1.
+    ndarray ``(T, H, W) uint8`` of 0/1 (``out`` when given).
     """
     charge = np.ascontiguousarray(charge, dtype=np.float64)
     if charge.ndim != 3:
         raise ValueError(f"charge must have shape (T, H, W); got {charge.shape}")
-    if not np.all(np.isfinite(charge)) or (charge.size and charge.min() < 0):
+    if check and (not np.all(np.isfinite(charge)) or (charge.size and charge.min() < 0)):
         raise ValueError("radiance must be finite and non-negative")
     thresholds = np.broadcast_to(np.asarray(threshold, dtype=np.float64), charge.shape[1:])
-    if not np.all(np.isfinite(thresholds)) or np.any(thresholds <= 0):
+    if check and (not np.all(np.isfinite(thresholds)) or np.any(thresholds <= 0)):
         raise ValueError("threshold must be positive and finite (every pixel)")
-    if state.shape != charge.shape[1:] or state.dtype != np.float64:
-        raise ValueError(f"state must be float64 of shape {charge.shape[1:]}; got {state.dtype} {state.shape}")
-    spikes = np.empty(charge.shape, dtype=np.uint8)
-    _fire(charge, np.ascontiguousarray(thresholds), state, spikes)
-    return spikes
+    if not isinstance(state, np.ndarray) or state.shape != charge.shape[1:] or state.dtype != np.float64:
+        raise ValueError(f"state must be float64 of shape {charge.shape[1:]}; got {getattr(state, 'dtype', None)} "
+                         f"{getattr(state, 'shape', None)}")
+    if out is None:
+        out = np.empty(charge.shape, dtype=np.uint8)
+    elif not isinstance(out, np.ndarray) or out.shape != charge.shape or out.dtype != np.uint8:
+        raise ValueError(f"out must be uint8 of shape {charge.shape}; got {getattr(out, 'dtype', None)} "
+                         f"{getattr(out, 'shape', None)}")
+    _fire(charge, np.ascontiguousarray(thresholds), state, out)
+    return out

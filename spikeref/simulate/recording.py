@@ -13,6 +13,8 @@ import numpy as np
 
 from spikeref.io.atomic import atomic_write
 from spikeref.io.dat import DatWriter
+from spikeref.io.exr import write_exr
+from spikeref.io.npz import NpzWriter
 from spikeref.simulate import effects as fx
 from spikeref.simulate.simulator import iter_simulation, resolve_seed
 
@@ -89,7 +91,6 @@ def simulate_to_dat(scene, path, seed=0, *, planes: int | None = None, effects=N
     h, w = scene.content.height, scene.content.width
     cam = scene.camera
     n_gt = int(total) // gt_window if want_gt else 0
-    from spikeref.io.npz import NpzWriter
 
     npz = NpzWriter(gt_path) if gt_path is not None else None
     member = npz.stream("gt", (n_gt, h, w, 3), np.float32) if npz is not None else None
@@ -102,8 +103,6 @@ def simulate_to_dat(scene, path, seed=0, *, planes: int | None = None, effects=N
                     if member is not None:
                         member.append(chunk.ground_truth)
                     if gt_exr_dir is not None:
-                        from spikeref.io.exr import write_exr
-
                         for i, frame in enumerate(chunk.ground_truth):
                             write_exr(Path(gt_exr_dir) / gt_exr_name(chunk.gt_start + i), frame)
         if npz is not None:

@@ -72,6 +72,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from spikeref.io.frames import read_frames
 from spikeref.simulate.camera import Camera
 from spikeref.simulate.effects import parse_effects
 from spikeref.simulate.motion import Motion, layer_flow
@@ -1072,8 +1073,6 @@ def _resample_matrix(n_in: int, n_out: int):
 
 def _video_from_table(table: dict, rate_hz: float, base_dir: Path | None) -> VideoFrames:
     """Read, decode, resize and scale a scene file's ``video`` content (the only file I/O of scenes)."""
-    from spikeref.io.frames import read_frames
-
     if "path" not in table:
         raise ValueError("content.path is required for type 'video' (a video file, a folder of images or a glob)")
     if "fps" not in table:
@@ -1165,8 +1164,6 @@ def _read_photograph(table: dict, base_dir: Path | None, name: str) -> tuple:
     Returns the radiance ``(h, w, 3) float32`` and how to name the file again (``skimage:NAME`` as
     given, otherwise the resolved path).
     """
-    from spikeref.io.frames import read_frames
-
     if "path" not in table:
         raise ValueError(f"{name}.path is required (an image file, or skimage:NAME for a scikit-image photograph)")
     path = _resolve_image_path(table["path"], base_dir, f"{name}.path")

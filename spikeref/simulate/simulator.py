@@ -33,7 +33,8 @@ from typing import Iterator
 import numpy as np
 
 from spikeref.simulate import effects as fx
-from spikeref.simulate.camera import _fire, mosaic_radiance
+from spikeref.simulate.camera import fire, mosaic_radiance
+from spikeref.stream import SpikeStream
 
 __all__ = [
     "BLOCK",
@@ -232,7 +233,7 @@ class Simulation:
         if "dark_current" in e:
             fx.add_dark_current(charge, e["dark_current"], cam.alpha, BLOCK, _rng(self.seed, "dark_current", block))
         # radiance was checked finite and ≥ 0 per readout, and every effect adds charge ≥ 0
-        _fire(charge, self.thresholds, self.state, spikes)
+        fire(charge, self.thresholds, self.state, out=spikes, check=False)
         if self.inherent is not None:
             self.inherent.apply_block(spikes, start, BLOCK, _rng(self.seed, "inherent_noise", block))
         self.readout += n
@@ -328,8 +329,6 @@ class SimulationResult:
     @property
     def stream(self):
         """The spikes as a :class:`spikeref.SpikeStream` (with the camera's CFA and rate)."""
-        from spikeref.stream import SpikeStream
-
         cam = self.scene.camera
         return SpikeStream.from_array(self.spikes, cfa=cam.cfa, rate_hz=cam.rate_hz, check=False)
 

@@ -1,0 +1,100 @@
+"""Frames/s of the default reconstruction here against an earlier revision's, alternated in one run.
+
+``python benchmarks/pipeline_against_revision.py REV [--frames 24] [--rounds 3] [--size 250x400]``
+
+Checks out ``REV`` into a temporary git worktree, writes one colour test stream (Bernoulli spikes of a
+smooth texture moving 1 px per window, RGGB) as a ``.dat`` both revisions can read, and then runs, in
+turn and ``--rounds`` times, a fresh process of each revision that opens the file with
+``spikeref.read_dat`` and reconstructs ``--frames`` frames with that revision's own defaults
+(``spikeref.reconstruct``'s ``ReconstructParams()`` and its bundled network) at W/K/L = 10/3/3.  The
+first frame of each process is left out of the timing (it compiles or loads the kernels).  Prints
+frames/s per round and the ratio of the medians.  Needs git and the revision in this clone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+
+CHILD = r"""
+import json, sys, time
+import numpy as np
+import spikeref as sr
+from spikeref.pipeline import ReconstructParams, Reconstructor
+stream = sr.read_dat(sys.argv[1], height=int(sys.argv[2]), width=int(sys.argv[3]), cfa="RGGB")
+rec = Reconstructor(stream, ReconstructParams(window=10, K=3, L=3))
+a = rec.frames_available.start
+n = int(sys.argv[4])
+it = iter(rec.frames(a, a + n + 1))
+next(it)  # compile / load
+t0 = time.perf_counter()
+for _ in it:
+    pass
+print(json.dumps({"fps": n / (time.perf_counter() - t0), "module": sr.__file__}))
+"""
+
+
+def _stream(h: int, w: int, planes: int, seed: int = 0) -> np.ndarray:
+    from scipy.ndimage import gaussian_filter
+
+    rng = np.random.default_rng(seed)
+    tex = gaussian_filter(rng.random((h + 64, w + 64)), 3.0)
+    tex = 0.05 + 0.9 * (tex - tex.min()) / np.ptp(tex)
+    out = np.empty((planes, h, w), np.uint8)
+    for t in range(0, planes, 10):
+        s = t // 10
+        img = tex[32:32 + h, 32 + s % 32:32 + s % 32 + w]
+        n = min(10, planes - t)
+        out[t:t + n] = rng.random((n, h, w)) < img
+    return out
+
+
+def _run(src: Path, dat: Path, h: int, w: int, frames: int) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(src))
+    done = subprocess.run([sys.executable, "-c", CHILD, str(dat), str(h), str(w), str(frames)], env=env,
+                          cwd=tempfile.gettempdir(), capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("rev", help="the earlier revision (a commit, tag or branch of this clone)")
+    ap.add_argument("--frames", type=int, default=24, help="frames timed per process (default 24)")
+    ap.add_argument("--rounds", type=int, default=3, help="processes of each revision, alternated (default 3)")
+    ap.add_argument("--size", default="250x400", help="HxW pixels (default 250x400)")
+    args = ap.parse_args(argv)
+    h, w = (int(v) for v in args.size.lower().split("x"))
+    from spikeref.io.dat import write_dat
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        old = tmp / "old"
+        subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(old), args.rev], check=True)
+        try:
+            dat = tmp / "stream.dat"
+            write_dat(dat, _stream(h, w, 10 * (args.frames + 8)))
+            fps = {"before": [], "now": []}
+            for r in range(args.rounds):
+                for name, src in (("before", old), ("now", REPO)):
+                    out = _run(src, dat, h, w, args.frames)
+                    assert Path(out["module"]).resolve().is_relative_to(src.resolve()), out["module"]
+                    fps[name].append(out["fps"])
+                    print(f"round {r + 1}: {name:6s} {out['fps']:6.2f} frames/s", flush=True)
+        finally:
+            subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(old)], check=False)
+    before, now = statistics.median(fps["before"]), statistics.median(fps["now"])
+    print(f"median frames/s at {h}x{w}, 10/3/3: {args.rev} {before:.2f}, now {now:.2f} ({now / before:.2f}x)")
+
+
+if __name__ == "__main__":
+    main()

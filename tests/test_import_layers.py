@@ -1,0 +1,175 @@
+"""The package's import graph: layers in one direction, no circles, no private names across modules.
+
+Layers, lowest first (``docs/architecture.md``): the Numba set-up; ``io`` (bytes); the core (the
+stream, the CFA and Bayer planes, Eq. 4 and the window charge, metrics); the algorithms (baselines,
+denoiser, alignment, warping, demosaic, simulator); the pipeline; the application (CLI, output
+sink and resume, Dask, benchmark, sample, the golden registry and port checker).  A module imports
+from its own layer or below.  The literal oracles import no fast code at all: only NumPy, SciPy and
+one another, so a wrong kernel cannot make its oracle wrong too.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+import spikeref
+
+ROOT = Path(spikeref.__file__).parent
+
+#: Layer of each module, by longest matching prefix.
+LAYERS = {
+    "spikeref._jit": 0,
+    "spikeref._callable": 0,
+    "spikeref.io": 1,
+    "spikeref.stream": 2,
+    "spikeref.bayer": 2,
+    "spikeref.accumulate": 2,
+    "spikeref.charge": 2,
+    "spikeref.noise_level": 2,
+    "spikeref.metrics": 2,
+    "spikeref.tonemap": 2,
+    "spikeref.baselines": 3,
+    "spikeref.denoise": 3,
+    "spikeref.align": 3,
+    "spikeref.warp": 3,
+    "spikeref.compose": 3,
+    "spikeref.demosaic": 3,
+    "spikeref.simulate": 3,
+    "spikeref.noise_check": 3,
+    "spikeref.pipeline": 4,
+    "spikeref.render": 5,
+    "spikeref.sample": 5,
+    "spikeref.distributed": 5,
+    "spikeref.bench": 5,
+    "spikeref.cli": 5,
+    "spikeref.golden_check": 5,
+    "spikeref.oracles.golden_cases": 5,
+    "spikeref": 5,  # the package's lazy exports (PEP 562) reach every layer
+}
+NAMES = {0: "Numba set-up", 1: "io", 2: "core", 3: "algorithms", 4: "pipeline", 5: "application"}
+
+#: Application modules keep the imports of their commands inside the functions that run them, so
+#: that ``spikeref --help`` and a command's argument errors answer without loading Numba's kernels;
+#: the library (layers 0–4) imports at the top, except for optional extras.
+DEFERRED_ALLOWED = 5
+
+
+def _modules():
+    for path in sorted(ROOT.rglob("*.py")):
+        parts = path.relative_to(ROOT.parent).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        yield name, path
+
+
+def _layer(module: str):
+    if module.startswith("spikeref.oracles") and module != "spikeref.oracles.golden_cases":
+        return "oracle"
+    best = max((p for p in LAYERS if module == p or module.startswith(p + ".")), key=len, default=None)
+    return None if best is None else LAYERS[best]
+
+
+def _imports(path: Path, module: str):
+    """``(target module, names, line, deferred)`` for every import of a spikeref module."""
+    tree = ast.parse(path.read_text())
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    deferred_nodes = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            deferred_nodes.update(id(n) for n in ast.walk(node))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
+                target = f"{base}.{node.module}" if node.module else base
+            else:
+                target = node.module or ""
+            if target == "spikeref" or target.startswith("spikeref."):
+                names = [a.name for a in node.names]
+                # ``from spikeref import baselines`` imports the module spikeref.baselines
+                if target == "spikeref" and all(_layer(f"spikeref.{n}") is not None for n in names):
+                    for n in names:
+                        yield f"spikeref.{n}", [], node.lineno, id(node) in deferred_nodes
+                    continue
+                yield target, names, node.lineno, id(node) in deferred_nodes
+        elif isinstance(node, ast.Import):
+            for a in node.names:
+                if a.name == "spikeref" or a.name.startswith("spikeref."):
+                    yield a.name, [], node.lineno, id(node) in deferred_nodes
+
+
+MODULES = dict(_modules())
+
+
+def test_every_module_has_a_layer():
+    assert not [m for m in MODULES if _layer(m) is None]
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_imports_go_down_the_layers(module):
+    mine = _layer(module)
+    wrong = []
+    for target, _, line, _ in _imports(MODULES[module], module):
+        theirs = _layer(target)
+        if mine == "oracle":
+            if theirs != "oracle":
+                wrong.append(f"line {line}: the oracle {module} imports {target} (fast code)")
+        elif theirs == "oracle":
+            if mine != 5:
+                wrong.append(f"line {line}: the library module {module} imports the oracle {target}")
+        elif theirs > mine:
+            wrong.append(f"line {line}: {module} ({NAMES[mine]}) imports {target} ({NAMES[theirs]})")
+    assert not wrong, "\n".join(wrong)
+
+
+@pytest.mark.parametrize("module", sorted(MODULES))
+def test_no_private_name_is_imported_from_another_module(module):
+    wrong = [f"line {line}: {module} imports {n} from {target}"
+             for target, names, line, _ in _imports(MODULES[module], module) if target != module
+             for n in names if n.startswith("_") and not n.startswith("__")]
+    assert not wrong, "\n".join(wrong)
+
+
+@pytest.mark.parametrize("module", sorted(m for m in MODULES if _layer(m) != 5))
+def test_library_modules_import_the_package_at_the_top(module):
+    deferred = [f"line {line}: {module} imports {target} inside a function"
+                for target, _, line, inner in _imports(MODULES[module], module) if inner]
+    assert not deferred, "\n".join(deferred)
+
+
+def test_no_import_circle_among_top_level_imports():
+    graph = {m: {t for t, _, _, inner in _imports(p, m) if not inner and t in MODULES and t != m}
+             for m, p in MODULES.items()}
+    # a package's __init__ importing its own submodules is how a package is built, not a circle
+    for m in graph:
+        graph[m] = {t for t in graph[m] if not (MODULES[t].name == "__init__.py" and m.startswith(t + "."))}
+    state, circles = {}, []
+
+    def visit(node, trail):
+        state[node] = "open"
+        for t in sorted(graph[node]):
+            if state.get(t) == "open":
+                circles.append(" -> ".join(trail[trail.index(t):] + [t]))
+            elif t not in state:
+                visit(t, trail + [t])
+        state[node] = "done"
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m, [m])
+    assert not circles, "\n".join(circles)
+
+
+def test_the_layer_test_sees_a_wrong_import(tmp_path):
+    # The walk must find an upward import, a private name and a deferred import in a module it is shown.
+    bad = tmp_path / "bad.py"
+    bad.write_text("from spikeref.pipeline import reconstruct\nfrom spikeref.bayer import _secret\n"
+                   "def f():\n    from spikeref.align import align\n")
+    found = list(_imports(bad, "spikeref.bayer"))
+    assert ("spikeref.pipeline", ["reconstruct"], 1, False) in found
+    assert ("spikeref.bayer", ["_secret"], 2, False) in found
+    assert ("spikeref.align", ["align"], 4, True) in found
+    assert _layer("spikeref.pipeline") > _layer("spikeref.bayer")
+    assert _layer("spikeref.oracles.align") == "oracle" and _layer("spikeref.oracles.golden_cases") == 5
