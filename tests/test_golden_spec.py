@@ -128,7 +128,7 @@ def _audit_table() -> list[list[str]]:
 
 
 def _resolves(name: str) -> bool:
-    """``name`` (``spikeref.x.y``, or short: ``oracles.x.y``, ``effects.f`` …) is an attribute of an importable module."""
+    """``name`` (``spikeref.x.y``, or short: ``oracles.x.y``, ``effects.f`` …) is an attribute of a module."""
     import importlib
 
     for prefix in ("spikeref.", "spikeref.simulate.", "spikeref.denoise."):

@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spikeref.denoise.unet import UNet, UNetSpec, conv3x3, conv3x3_im2col, conv3x3_plain, layer_shapes
+from spikeref.denoise._conv_alternatives import conv3x3_im2col, conv3x3_plain
+from spikeref.denoise.unet import UNet, UNetSpec, conv3x3, layer_shapes
 from spikeref.oracles.unet import conv3x3_oracle, unet_forward_oracle
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden" / "unet_forward.npz"
@@ -60,14 +61,14 @@ def test_conv_known_values(conv):
 
 
 def test_im2col_strips_do_not_change_the_result(monkeypatch):
-    import spikeref.denoise.unet as unet
+    import spikeref.denoise._conv_alternatives as alternatives
 
     rng = np.random.default_rng(0)
     x = rng.random((2, 3, 24, 20)).astype(np.float32)
     wt = rng.standard_normal((5, 3, 3, 3)).astype(np.float32)
     b = rng.standard_normal(5).astype(np.float32)
     whole = _conv_im2col(x, wt, b, 0.1)
-    monkeypatch.setattr(unet, "_STRIP_BYTES", 1)  # one row per strip
+    monkeypatch.setattr(alternatives, "_STRIP_BYTES", 1)  # one row per strip
     np.testing.assert_allclose(_conv_im2col(x, wt, b, 0.1), whole, rtol=1e-6, atol=1e-7)
 
 
