@@ -110,7 +110,44 @@ def test_every_interior_value_is_written_and_borders_are_zero(monkeypatch):
         return b
 
     monkeypatch.setattr(unet, "_padded_empty", poisoned)
+    unet._buffers().start(None)  # drop this thread's kept buffers: every buffer is a new, poisoned one
     np.testing.assert_array_equal(net(x), clean)
+    # Buffers kept from the pass before are handed out again: poison those too.
+    original_take = unet._Buffers.take
+
+    def poisoned_take(self, n, c, h, w):
+        b = original_take(self, n, c, h, w)
+        b[:, :, 1:-1, 1:-1] = np.nan
+        return b
+
+    monkeypatch.setattr(unet._Buffers, "take", poisoned_take)
+    np.testing.assert_array_equal(net(x), clean)
+
+
+def test_kept_buffers_give_the_same_output_and_never_alias_it():
+    # A stream of frames of one size reuses the activation buffers of the pass before; the output
+    # must be the caller's own array, each pass must equal a pass on fresh buffers, and a pass on
+    # another size must drop the kept buffers (what is kept stays bounded).
+    import spikeref.denoise.unet as unet
+
+    net = UNet.random(UNetSpec(width=6, depth=3), seed=3)
+    rng = np.random.default_rng(4)
+    a, b = (rng.random((2, 24, 40)).astype(np.float32) for _ in range(2))
+    unet._buffers().start(None)
+    fresh_a = net(a)
+    unet._buffers().start(None)
+    fresh_b = net(b)
+    first = net(a)
+    kept = {k: len(v) for k, v in unet._buffers().free.items()}
+    assert kept and all(n >= 1 for n in kept.values())
+    second = net(b)
+    np.testing.assert_array_equal(first, fresh_a)
+    np.testing.assert_array_equal(second, fresh_b)
+    assert {k: len(v) for k, v in unet._buffers().free.items()} == kept  # the same buffers, no more
+    first[...] = -1.0  # the output is not a pooled buffer
+    np.testing.assert_array_equal(net(b), fresh_b)
+    net(rng.random((1, 8, 16)).astype(np.float32))
+    assert all(k[0] == 1 for k in unet._buffers().free)  # the other size's buffers were dropped
 
 
 def test_conv_refuses_bad_arguments():
