@@ -145,7 +145,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spikeref._jit import njit, prange
+from spikeref._align_kernels import (
+    PD_TOLERANCE, PYRAMID_KERNEL, SLACK, blur_decimate_kernel, dense_flow, gradient, integral_image,
+    jacobi_sweeps, lucas_kanade, search_tiles, subpixel_fit, upsample_tiles, zero_test_terms,
+)
 from spikeref.noise_level import immerkaer_response
 
 __all__ = [
@@ -171,14 +174,6 @@ __all__ = [
     "flow_from_tiles",
 ]
 
-#: The 5-tap binomial blur of the pyramid (σ = 1), applied separably.
-PYRAMID_KERNEL = (1.0, 4.0, 6.0, 4.0, 1.0)
-
-#: The sub-pixel fit's ``A`` counts as positive definite when its smaller eigenvalue exceeds this
-#: fraction of the largest of the nine distances: a guard against round-off on degenerate surfaces
-#: (e.g. a tile whose samples are all clamped to one edge row, where ``A`` is singular).
-PD_TOLERANCE = 1e-9
-
 #: The sub-pixel refinements of :attr:`AlignParams.refine`.
 REFINES = ("quadratic", "lk")
 #: Gauss–Newton steps of ``refine="lk"`` per tile.
@@ -187,10 +182,6 @@ LK_ITERATIONS = 2
 ZERO_TEST_BOX = 9
 #: Jacobi sweeps of the regularisation of ``refine="lk"`` with ``smoothness > 0``.
 SMOOTHNESS_SWEEPS = 30
-
-#: The sub-pixel offset is accepted when ``|u*| ≤ 1 + SLACK`` in both components; the slack keeps the
-#: decision the same in the kernel and the oracle when ``|u*| = 1`` exactly (quantised input).
-SLACK = 1e-9
 
 
 # ----------------------------------------------------------------------------- parameters
@@ -383,309 +374,6 @@ def _check_step(step) -> int:
 
 
 # ----------------------------------------------------------------------------- kernels
-@njit(inline="always")
-def _distance(ref, alt, oy, ox, tile, dy, dx, l2):
-    """Σ over the tile at ``(oy, ox)`` of ``|ref(p) − alt(p + (dy, dx))|`` (or its square), clamped samples."""
-    h, w = alt.shape
-    total = 0.0
-    if oy + dy >= 0 and oy + dy + tile <= h and ox + dx >= 0 and ox + dx + tile <= w:
-        # the whole shifted tile is inside: no clamping, the same sums in the same order
-        for y in range(oy, oy + tile):
-            r = ref[y, ox:ox + tile]
-            a = alt[y + dy, ox + dx:ox + dx + tile]
-            for x in range(tile):
-                d = np.float64(r[x]) - np.float64(a[x])
-                if l2:
-                    total += d * d
-                else:
-                    total += abs(d)
-        return total
-    for y in range(oy, oy + tile):
-        yy = min(max(y + dy, 0), h - 1)
-        for x in range(ox, ox + tile):
-            xx = min(max(x + dx, 0), w - 1)
-            d = np.float64(ref[y, x]) - np.float64(alt[yy, xx])
-            if l2:
-                total += d * d
-            else:
-                total += abs(d)
-    return total
-
-
-@njit(parallel=True)
-def _search(ref, alt, tile, centre, radius, l2, bias, thresh, out):
-    """Integer search: ``out[i, j] = centre[i, j] + argmin_d distance``; ``centre, out (ny, nx, 2) int64``.
-
-    Noise-aware search (``bias``, ``thresh (ny, nx) float64``; zeros and −1 turn it off): the zero
-    offset's distance is lowered by ``bias[i, j]`` (the excess that anti-correlated noise gives it),
-    and where ``thresh[i, j] ≥ 0`` the zero vector (whether or not it lies in the search window), else
-    the centre, is kept unless the best distance is lower than its distance by more than
-    ``thresh[i, j]``.
-    """
-    ny, nx = centre.shape[0], centre.shape[1]
-    stride = tile // 2
-    for t in prange(ny * nx):
-        i = t // nx
-        j = t % nx
-        oy = i * stride
-        ox = j * stride
-        cy = centre[i, j, 0]
-        cx = centre[i, j, 1]
-        best = np.inf
-        by = 0
-        bx = 0
-        bn = 0
-        at_centre = np.inf
-        for dy in range(-radius, radius + 1):
-            for dx in range(-radius, radius + 1):
-                dist = _distance(ref, alt, oy, ox, tile, cy + dy, cx + dx, l2)
-                if cy + dy == 0 and cx + dx == 0:
-                    dist -= bias[i, j]
-                n2 = dy * dy + dx * dx
-                if n2 == 0:
-                    at_centre = dist
-                if dist < best or (dist == best and n2 < bn):
-                    best = dist
-                    by = dy
-                    bx = dx
-                    bn = n2
-        if thresh[i, j] >= 0.0:
-            at_zero = _distance(ref, alt, oy, ox, tile, 0, 0, l2) - bias[i, j]
-            if at_zero - best <= thresh[i, j]:  # zero motion first …
-                by = -cy
-                bx = -cx
-            elif at_centre - best <= thresh[i, j]:  # … then the search centre
-                by = 0
-                bx = 0
-        out[i, j, 0] = cy + by
-        out[i, j, 1] = cx + bx
-
-
-@njit(inline="always")
-def _nearest_tiles(c, coarse_tile, count):
-    """Nearest coarse tile to the fine centre ``c`` (fine pixel-index coordinates) and its neighbour on ``c``'s side."""
-    stride = coarse_tile // 2
-    pos = (0.5 * c - 0.5 * (coarse_tile - 1)) / stride  # in units of coarse tiles, 0 = first centre
-    m = int(np.floor(pos + 0.5))
-    m = min(max(m, 0), count - 1)
-    n = m + 1 if pos > m else m - 1
-    n = min(max(n, 0), count - 1)
-    return m, n
-
-
-@njit(parallel=True)
-def _upsample(ref, alt, tile, coarse, coarse_tile, bias, out):
-    """3-candidate upsampling: ``out (ny, nx, 2)`` = the best of 3 doubled coarse vectors (L1 at this level).
-
-    A zero candidate's distance is lowered by ``bias[i, j]`` (noise-aware search; zeros: off).
-    """
-    ny, nx = out.shape[0], out.shape[1]
-    my, mx = coarse.shape[0], coarse.shape[1]
-    stride = tile // 2
-    for t in prange(ny * nx):
-        i = t // nx
-        j = t % nx
-        oy = i * stride
-        ox = j * stride
-        ay, by_ = _nearest_tiles(oy + 0.5 * (tile - 1), coarse_tile, my)
-        ax, bx_ = _nearest_tiles(ox + 0.5 * (tile - 1), coarse_tile, mx)
-        best = np.inf
-        vy = 0
-        vx = 0
-        for k in range(3):
-            if k == 0:
-                cy, cx = ay, ax
-            elif k == 1:
-                cy, cx = ay, bx_
-            else:
-                cy, cx = by_, ax
-            uy = 2 * coarse[cy, cx, 0]
-            ux = 2 * coarse[cy, cx, 1]
-            dist = _distance(ref, alt, oy, ox, tile, uy, ux, False)
-            if uy == 0 and ux == 0:
-                dist -= bias[i, j]
-            if dist < best:
-                best = dist
-                vy = uy
-                vx = ux
-        out[i, j, 0] = vy
-        out[i, j, 1] = vx
-
-
-@njit(inline="always")
-def _fit_offset(d):
-    """Least-squares fit of ``½uᵀAu + bᵀu + c`` to the 3×3 distances ``d[dy+1, dx+1]``; ``(u*_y, u*_x, ok)``.
-
-    Closed form of the normal equations on the 3×3 grid: ``b`` and ``A_xy`` from the odd moments,
-    ``A_yy = (Σ rows ±1)/3 − 2 (Σ row 0)/3`` (and the same for columns).  ``ok`` is False unless
-    ``A`` is positive definite — its smaller eigenvalue above :data:`PD_TOLERANCE` times the largest
-    of the nine distances — and ``|u*| ≤ 1`` (+ :data:`SLACK`) in both components.
-    """
-    r_m = d[0, 0] + d[0, 1] + d[0, 2]
-    r_0 = d[1, 0] + d[1, 1] + d[1, 2]
-    r_p = d[2, 0] + d[2, 1] + d[2, 2]
-    c_m = d[0, 0] + d[1, 0] + d[2, 0]
-    c_0 = d[0, 1] + d[1, 1] + d[2, 1]
-    c_p = d[0, 2] + d[1, 2] + d[2, 2]
-    b_y = (r_p - r_m) / 6.0
-    b_x = (c_p - c_m) / 6.0
-    a_yy = (r_m + r_p) / 3.0 - 2.0 * r_0 / 3.0
-    a_xx = (c_m + c_p) / 3.0 - 2.0 * c_0 / 3.0
-    a_xy = (d[2, 2] - d[2, 0] - d[0, 2] + d[0, 0]) / 4.0
-    scale = 0.0
-    for a in range(3):
-        for b in range(3):
-            scale = max(scale, d[a, b])
-    smallest = 0.5 * (a_yy + a_xx - np.sqrt((a_yy - a_xx) ** 2 + 4.0 * a_xy * a_xy))
-    if not smallest > PD_TOLERANCE * scale:
-        return 0.0, 0.0, False
-    det = a_yy * a_xx - a_xy * a_xy
-    u_y = -(a_xx * b_y - a_xy * b_x) / det
-    u_x = -(a_yy * b_x - a_xy * b_y) / det
-    if abs(u_y) <= 1.0 + SLACK and abs(u_x) <= 1.0 + SLACK:
-        return u_y, u_x, True
-    return 0.0, 0.0, False
-
-
-@njit(parallel=True)
-def _subpixel(ref, alt, tile, best, out):
-    """``out (ny, nx, 2) float32`` = integer ``best`` + the quadratic-fit offset where accepted."""
-    ny, nx = best.shape[0], best.shape[1]
-    stride = tile // 2
-    for t in prange(ny * nx):
-        i = t // nx
-        j = t % nx
-        oy = i * stride
-        ox = j * stride
-        by = best[i, j, 0]
-        bx = best[i, j, 1]
-        out[i, j, 0] = by
-        out[i, j, 1] = bx
-        d = np.empty((3, 3))
-        for a in range(3):
-            for b in range(3):
-                d[a, b] = _distance(ref, alt, oy, ox, tile, by + a - 1, bx + b - 1, True)
-        if d[1, 1] == 0.0:
-            continue
-        u_y, u_x, ok = _fit_offset(d)
-        if ok:
-            out[i, j, 0] = by + u_y
-            out[i, j, 1] = bx + u_x
-
-
-@njit
-def _gradient(img, gy, gx):
-    """Central differences of ``img`` (one-sided at the border, as ``numpy.gradient``) into ``gy, gx`` (float64)."""
-    h, w = img.shape
-    for y in range(h):
-        for x in range(w):
-            if h == 1:
-                gy[y, x] = 0.0
-            elif y == 0:
-                gy[y, x] = np.float64(img[1, x]) - np.float64(img[0, x])
-            elif y == h - 1:
-                gy[y, x] = np.float64(img[h - 1, x]) - np.float64(img[h - 2, x])
-            else:
-                gy[y, x] = 0.5 * (np.float64(img[y + 1, x]) - np.float64(img[y - 1, x]))
-            if w == 1:
-                gx[y, x] = 0.0
-            elif x == 0:
-                gx[y, x] = np.float64(img[y, 1]) - np.float64(img[y, 0])
-            elif x == w - 1:
-                gx[y, x] = np.float64(img[y, w - 1]) - np.float64(img[y, w - 2])
-            else:
-                gx[y, x] = 0.5 * (np.float64(img[y, x + 1]) - np.float64(img[y, x - 1]))
-
-
-@njit(inline="always")
-def _bilinear_cell(sy, sx, h, w):
-    """The bilinear cell of a position ``(sy, sx)`` already clamped to the ``h × w`` grid:
-    ``(y0, x0, y1, x1, fy, fx)``, the far corner clamped too (a position on the last row or column)."""
-    y0 = min(int(np.floor(sy)), h - 1)
-    x0 = min(int(np.floor(sx)), w - 1)
-    return y0, x0, min(y0 + 1, h - 1), min(x0 + 1, w - 1), sy - y0, sx - x0
-
-
-@njit(inline="always")
-def _bilinear3(img, gy, gx, y, x):
-    """Bilinear samples of ``img`` and its two gradient images at ``(y, x)``, clamped to the grid."""
-    h, w = img.shape
-    yc = min(max(y, 0.0), h - 1.0)
-    xc = min(max(x, 0.0), w - 1.0)
-    y0, x0, y1, x1, fy, fx = _bilinear_cell(yc, xc, h, w)
-    w00 = (1.0 - fy) * (1.0 - fx)
-    w01 = (1.0 - fy) * fx
-    w10 = fy * (1.0 - fx)
-    w11 = fy * fx
-    a = w00 * img[y0, x0] + w01 * img[y0, x1] + w10 * img[y1, x0] + w11 * img[y1, x1]
-    b = w00 * gy[y0, x0] + w01 * gy[y0, x1] + w10 * gy[y1, x0] + w11 * gy[y1, x1]
-    c = w00 * gx[y0, x0] + w01 * gx[y0, x1] + w10 * gx[y1, x0] + w11 * gx[y1, x1]
-    return a, b, c
-
-
-@njit(parallel=True)
-def _lucas_kanade(ref, alt, gy, gx, tile, best, iterations, out, info):
-    """``out (ny, nx, 2) float64``: ``best`` refined by Gauss–Newton steps of a translation per tile.
-
-    ``info (ny, nx, 3)`` receives ``(Σ g_y², Σ g_y g_x, Σ g_x²)`` of the last step (the tile's
-    Lucas–Kanade information, before dividing by the noise).  A step whose 2×2 system is singular
-    (relative tolerance :data:`PD_TOLERANCE` on the determinant) leaves the vector as it is; a step
-    is clamped to ``±1`` pixel per component.  Samples whose moved position lies outside ``alt``
-    are left out of the sums.
-    """
-    ny, nx = best.shape[0], best.shape[1]
-    h, w = alt.shape
-    stride = tile // 2
-    for t in prange(ny * nx):
-        i = t // nx
-        j = t % nx
-        oy = i * stride
-        ox = j * stride
-        uy = np.float64(best[i, j, 0])
-        ux = np.float64(best[i, j, 1])
-        syy = 0.0
-        syx = 0.0
-        sxx = 0.0
-        for it in range(iterations):
-            syy = 0.0
-            syx = 0.0
-            sxx = 0.0
-            ry = 0.0
-            rx = 0.0
-            iy = int(uy)
-            ix = int(ux)
-            for y in range(oy, oy + tile):
-                py = y + uy
-                if py < 0.0 or py > h - 1.0:  # samples outside the image are left out
-                    continue
-                for x in range(ox, ox + tile):
-                    px = x + ux
-                    if px < 0.0 or px > w - 1.0:
-                        continue
-                    if it == 0:  # the integer vector: the samples themselves (what bilinear gives there)
-                        a = np.float64(alt[y + iy, x + ix])
-                        ay = gy[y + iy, x + ix]
-                        ax = gx[y + iy, x + ix]
-                    else:
-                        a, ay, ax = _bilinear3(alt, gy, gx, py, px)
-                    e = np.float64(ref[y, x]) - a
-                    syy += ay * ay
-                    syx += ay * ax
-                    sxx += ax * ax
-                    ry += ay * e
-                    rx += ax * e
-            det = syy * sxx - syx * syx
-            if not det > PD_TOLERANCE * (syy + sxx) ** 2 or det <= 0.0:
-                break
-            dy = (sxx * ry - syx * rx) / det
-            dx = (syy * rx - syx * ry) / det
-            uy += min(max(dy, -1.0), 1.0)
-            ux += min(max(dx, -1.0), 1.0)
-        out[i, j, 0] = uy
-        out[i, j, 1] = ux
-        info[i, j, 0] = syy
-        info[i, j, 1] = syx
-        info[i, j, 2] = sxx
 
 
 def _regularise(vectors: np.ndarray, info: np.ndarray, variance: np.ndarray, lam: float,
@@ -701,79 +389,9 @@ def _regularise(vectors: np.ndarray, info: np.ndarray, variance: np.ndarray, lam
     if ny * nx == 1 or lam <= 0:
         return vectors
     out = np.empty_like(vectors)
-    _jacobi(np.ascontiguousarray(vectors, np.float64), np.ascontiguousarray(info, np.float64),
+    jacobi_sweeps(np.ascontiguousarray(vectors, np.float64), np.ascontiguousarray(info, np.float64),
             np.ascontiguousarray(np.maximum(variance, 1e-20), np.float64), float(lam), int(sweeps), out)
     return out
-
-
-@njit
-def _jacobi(hat, info, variance, lam, sweeps, out):
-    """The Jacobi sweeps of :func:`_regularise` (``hat, out (ny, nx, 2)``, ``info (ny, nx, 3)``)."""
-    ny, nx = hat.shape[0], hat.shape[1]
-    cur = hat.copy()
-    for _ in range(sweeps):
-        for i in range(ny):
-            for j in range(nx):
-                sy = 0.0
-                sx = 0.0
-                n = 0
-                if i > 0:
-                    sy += cur[i - 1, j, 0]
-                    sx += cur[i - 1, j, 1]
-                    n += 1
-                if i < ny - 1:
-                    sy += cur[i + 1, j, 0]
-                    sx += cur[i + 1, j, 1]
-                    n += 1
-                if j > 0:
-                    sy += cur[i, j - 1, 0]
-                    sx += cur[i, j - 1, 1]
-                    n += 1
-                if j < nx - 1:
-                    sy += cur[i, j + 1, 0]
-                    sx += cur[i, j + 1, 1]
-                    n += 1
-                v = variance[i, j]
-                jyy = info[i, j, 0] / v
-                jyx = info[i, j, 1] / v
-                jxx = info[i, j, 2] / v
-                ayy = jyy + lam * n
-                axx = jxx + lam * n
-                det = ayy * axx - jyx * jyx
-                by = jyy * hat[i, j, 0] + jyx * hat[i, j, 1] + lam * sy
-                bx = jyx * hat[i, j, 0] + jxx * hat[i, j, 1] + lam * sx
-                out[i, j, 0] = (axx * by - jyx * bx) / det
-                out[i, j, 1] = (ayy * bx - jyx * by) / det
-        cur[...] = out
-
-
-@njit(inline="always")
-def _interp_index(p, c0, stride, n):
-    """Bilinear taps of pixel ``p`` between tile centres ``c0 + i·stride``, clamped beyond the outer ones."""
-    t = (p - c0) / stride
-    if t <= 0.0:
-        return 0, 0, 0.0
-    if t >= n - 1:
-        return n - 1, n - 1, 0.0
-    i0 = int(np.floor(t))
-    return i0, i0 + 1, t - i0
-
-
-@njit(parallel=True)
-def _flow_from_tiles(vectors, tile, out):
-    """``out (2, h, w) float32``: bilinear interpolation of ``vectors (ty, tx, 2)`` placed at the tile centres."""
-    ty, tx = vectors.shape[0], vectors.shape[1]
-    h, w = out.shape[1], out.shape[2]
-    stride = tile // 2
-    c0 = 0.5 * (tile - 1)
-    for y in prange(h):
-        i0, i1, fy = _interp_index(y, c0, stride, ty)
-        for x in range(w):
-            j0, j1, fx = _interp_index(x, c0, stride, tx)
-            for c in range(2):
-                top = (1.0 - fx) * np.float64(vectors[i0, j0, c]) + fx * np.float64(vectors[i0, j1, c])
-                bottom = (1.0 - fx) * np.float64(vectors[i1, j0, c]) + fx * np.float64(vectors[i1, j1, c])
-                out[c, y, x] = (1.0 - fy) * top + fy * bottom
 
 
 # ----------------------------------------------------------------------------- checks
@@ -963,28 +581,12 @@ def _check_correlation(correlation, ref, alt) -> float:
 def _tile_sums(values: np.ndarray, tile: int, shape: tuple[int, int]) -> np.ndarray:
     """``Σ`` of ``values`` over every tile of the grid ``shape`` (size ``tile``, stride ``tile/2``)."""
     c = np.zeros((values.shape[0] + 1, values.shape[1] + 1))
-    _integral_image(np.ascontiguousarray(values, np.float64), c)  # = cumsum(cumsum(values, 0), 1), bit for bit
+    integral_image(np.ascontiguousarray(values, np.float64), c)  # = cumsum(cumsum(values, 0), 1), bit for bit
     s = tile // 2
     y0 = np.arange(shape[0]) * s
     x0 = np.arange(shape[1]) * s
     return (c[y0[:, None] + tile, x0[None, :] + tile] - c[y0[:, None], x0[None, :] + tile]
             - c[y0[:, None] + tile, x0[None, :]] + c[y0[:, None], x0[None, :]])
-
-
-@njit
-def _integral_image(values, c):
-    """``c[1:, 1:] = cumsum(cumsum(values, axis=0), axis=1)`` (the same sums in the same order)."""
-    h, w = values.shape
-    for j in range(w):
-        acc = 0.0
-        for i in range(h):
-            acc += values[i, j]
-            c[i + 1, j + 1] = acc
-    for i in range(h):
-        acc = 0.0
-        for j in range(w):
-            acc += c[i + 1, j + 1]
-            c[i + 1, j + 1] = acc
 
 
 def _thresholds(var_k: np.ndarray, factors: tuple[float, float], tile: int, shape, l2: bool, z: float,
@@ -1012,46 +614,13 @@ def _thresholds(var_k: np.ndarray, factors: tuple[float, float], tile: int, shap
     return np.ascontiguousarray(bias), np.ascontiguousarray(z * np.sqrt(variance))
 
 
-@njit
-def _zero_test_terms(ref, alt, flow, noise, rho, d_out, var_out):
-    """Per pixel: ``(r − a)² − (r − a_u)²`` less its noise-only mean, and that term's noise variance.
-
-    ``a_u`` is ``alt`` sampled bilinearly at ``p + flow(p)`` (position clamped to the image).  With noise
-    of variance ``v`` per image and correlation ``ρ`` at the same pixel: ``x = r − a`` has variance
-    ``2v(1 − ρ)``, ``y = r − a_u`` has ``v(1 + Σw² − 2ρ w₀)`` (``w`` the bilinear weights, ``w₀`` that of
-    the tap at ``p`` itself), ``cov(x, y) = v(1 + w₀)(1 − ρ)``; for Gaussian noise
-    ``var(x² − y²) = 2σ_x⁴ + 2σ_y⁴ − 4 cov²``.
-    """
-    h, w = ref.shape
-    for y in range(h):
-        for x in range(w):
-            uy = np.float64(flow[0, y, x])
-            ux = np.float64(flow[1, y, x])
-            sy = min(max(y + uy, 0.0), h - 1.0)
-            sx = min(max(x + ux, 0.0), w - 1.0)
-            y0, x0, y1, x1, fy, fx = _bilinear_cell(sy, sx, h, w)
-            au = ((1.0 - fy) * ((1.0 - fx) * alt[y0, x0] + fx * alt[y0, x1])
-                  + fy * ((1.0 - fx) * alt[y1, x0] + fx * alt[y1, x1]))
-            r = np.float64(ref[y, x])
-            dx0 = r - alt[y, x]
-            dxu = r - au
-            v = noise[y, x]
-            sw2 = ((1.0 - fy) ** 2 + fy * fy) * ((1.0 - fx) ** 2 + fx * fx)
-            w0 = max(0.0, 1.0 - abs(sy - y)) * max(0.0, 1.0 - abs(sx - x))
-            s_x = 2.0 * v * (1.0 - rho)
-            s_y = v * (1.0 + sw2 - 2.0 * rho * w0)
-            c = v * (1.0 + w0) * (1.0 - rho)
-            d_out[y, x] = dx0 * dx0 - dxu * dxu - (s_x - s_y)
-            var_out[y, x] = max(2.0 * s_x * s_x + 2.0 * s_y * s_y - 4.0 * c * c, 0.0)
-
-
 def zero_motion_test(flow, reference, alternate, z: float, noise=None, correlation=None,
                      box: int = ZERO_TEST_BOX) -> np.ndarray:
     """The flow with zero motion where zero explains the frames better (``AlignParams.zero_test``; not in the paper).
 
     Per pixel ``p``, ``d(p) = (r(p) − a(p))² − (r(p) − a(p + F(p)))²`` less its mean under noise alone, summed
     over the ``box × box`` pixels around ``p`` (SciPy's ``uniform_filter``, ``mode="nearest"``); where that
-    sum is below ``−z`` standard deviations of what noise gives (:func:`_zero_test_terms`), the zero offset
+    sum is below ``−z`` standard deviations of what noise gives (:func:`zero_test_terms`), the zero offset
     fits the data significantly better than the flow and ``F(p)`` becomes 0.  Where the two are not told
     apart (flat regions) the flow is kept.
 
@@ -1099,7 +668,7 @@ def _zero_motion(flow: np.ndarray, ref: np.ndarray, alt: np.ndarray, z: float, n
 
     d = np.empty(ref.shape, np.float64)
     var = np.empty(ref.shape, np.float64)
-    _zero_test_terms(ref, alt, flow, noise, rho, d, var)
+    zero_test_terms(ref, alt, flow, noise, rho, d, var)
     total = uniform_filter(d, box, mode="nearest")
     spread = uniform_filter(var, box, mode="nearest")
     flow[:, total < -z * np.sqrt(spread / (box * box))] = 0.0
@@ -1142,33 +711,8 @@ def _blur_decimate(image: np.ndarray) -> np.ndarray:
     img = np.ascontiguousarray(image)
     h, w = img.shape
     out = np.empty(((h + 1) // 2, (w + 1) // 2), np.float32)
-    _blur_decimate_kernel(img, out)
+    blur_decimate_kernel(img, out)
     return out
-
-
-@njit
-def _blur_decimate_kernel(img, out):
-    k0, k1, k2, k3, k4 = PYRAMID_KERNEL
-    h, w = img.shape
-    oh, ow = out.shape
-    v = np.empty((oh, w))
-    for i in range(oh):
-        y = 2 * i
-        r0 = max(y - 2, 0)
-        r1 = max(y - 1, 0)
-        r3 = min(y + 1, h - 1)
-        r4 = min(y + 2, h - 1)
-        for x in range(w):
-            v[i, x] = (k0 * np.float64(img[r0, x]) + k1 * np.float64(img[r1, x]) + k2 * np.float64(img[y, x])
-                       + k3 * np.float64(img[r3, x]) + k4 * np.float64(img[r4, x])) / 16.0
-    for i in range(oh):
-        for j in range(ow):
-            x = 2 * j
-            c0 = max(x - 2, 0)
-            c1 = max(x - 1, 0)
-            c3 = min(x + 1, w - 1)
-            c4 = min(x + 2, w - 1)
-            out[i, j] = (k0 * v[i, c0] + k1 * v[i, c1] + k2 * v[i, x] + k3 * v[i, c3] + k4 * v[i, c4]) / 16.0
 
 
 def gaussian_pyramid(image, levels: int) -> list[np.ndarray]:
@@ -1284,23 +828,23 @@ def _align_tiles(reference, alternate, step, params, noise, correlation):
             up_bias = bias  # zeros when off; else the L1 bias, as the candidates are compared by L1
             if noise_pyr is not None and k > 0:
                 up_bias = _thresholds(noise_pyr[k], factors[k], t, shape[:2], False, 0.0, rho)[0]
-            _upsample(r_img, a_img, t, vectors, params.coarse_tile, up_bias, centre)
+            upsample_tiles(r_img, a_img, t, vectors, params.coarse_tile, up_bias, centre)
         vectors = np.empty(shape, np.int64)
-        _search(r_img, a_img, t, centre, params.search_radius[k], k > 0, bias, thresh, vectors)
+        search_tiles(r_img, a_img, t, centre, params.search_radius[k], k > 0, bias, thresh, vectors)
     out = np.empty(vectors.shape, np.float32)
     if params.subpixel and params.refine == "lk":
         refined = np.empty(vectors.shape, np.float64)
         info = np.empty(vectors.shape[:2] + (3,), np.float64)
         gy = np.empty(alt_pyr[0].shape)
         gx = np.empty(alt_pyr[0].shape)
-        _gradient(alt_pyr[0], gy, gx)
-        _lucas_kanade(ref_pyr[0], alt_pyr[0], gy, gx, tile, vectors, LK_ITERATIONS, refined, info)
+        gradient(alt_pyr[0], gy, gx)
+        lucas_kanade(ref_pyr[0], alt_pyr[0], gy, gx, tile, vectors, LK_ITERATIONS, refined, info)
         if params.smoothness > 0:
             variance = _tile_sums(noise0, tile, vectors.shape[:2]) / (tile * tile)
             refined = _regularise(refined, info, variance, params.smoothness)
         out[...] = refined
     elif params.subpixel:
-        _subpixel(ref_pyr[0], alt_pyr[0], tile, vectors, out)
+        subpixel_fit(ref_pyr[0], alt_pyr[0], tile, vectors, out)
     else:
         out[...] = vectors
     return out, tile, noise0
@@ -1344,7 +888,7 @@ def flow_from_tiles(vectors, tile: int, shape) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise ValueError("vectors must be finite (no NaN or inf)")
     out = np.empty((2, h, w), np.float32)
-    _flow_from_tiles(arr, int(tile), out)
+    dense_flow(arr, int(tile), out)
     return out
 
 
@@ -1383,7 +927,7 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
     vectors, tile, noise0 = _align_tiles(reference, alternate, step, params, noise, correlation)
     h, w = np.shape(reference)
     out = np.empty((2, h, w), np.float32)
-    _flow_from_tiles(vectors, tile, out)
+    dense_flow(vectors, tile, out)
     if params.zero_test is not None:
         r_img, a_img = (reference, alternate) if raw is None else raw
         r_img, a_img = _as_image(r_img, "raw reference"), _as_image(a_img, "raw alternate")

@@ -8,9 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
+from spikeref._align_kernels import fit_offset, gradient, lucas_kanade, nearest_tiles
 from spikeref.align import (
-    AlignParams, _fit_offset, _gradient, _lucas_kanade, _nearest_tiles, _regularise, align, align_tiles,
-    estimate_noise, estimate_noise_correlation, flow_from_tiles, gaussian_pyramid, local_noise, luma, zero_motion_test,
+    AlignParams, _regularise, align, align_tiles, estimate_noise, estimate_noise_correlation, flow_from_tiles,
+    gaussian_pyramid, local_noise, luma, zero_motion_test,
 )
 from spikeref.oracles.align import (
     align_oracle, align_tiles_oracle, estimate_noise_correlation_oracle, estimate_noise_oracle, flow_from_tiles_oracle,
@@ -116,9 +117,9 @@ def test_nearest_coarse_tiles():
     for i in range(7):
         c = 8 * i + 7.5
         expected = (i, min(i + 1, 6))
-        assert _nearest_tiles(c, 8, 7) == expected == nearest_tiles_oracle(c, 32, 8)
+        assert nearest_tiles(c, 8, 7) == expected == nearest_tiles_oracle(c, 32, 8)
     # fine T = 8 (stride 4): centre 4i + 3.5 → 2i + 1.75 between the coarse centres 4m + 3.5 (clamped at 0)
-    got = [_nearest_tiles(4 * i + 3.5, 8, 5) for i in range(8)]
+    got = [nearest_tiles(4 * i + 3.5, 8, 5) for i in range(8)]
     assert got == [(0, 0), (0, 1), (1, 0), (1, 2), (2, 1), (2, 3), (3, 2), (3, 4)]
     assert got == [nearest_tiles_oracle(4 * i + 3.5, 24, 8) for i in range(8)]
 
@@ -128,15 +129,15 @@ def test_quadratic_fit_recovers_a_quadratic_minimum():
     u0 = np.array([0.3, -0.45])
     d = np.array([[0.5 * (np.array([uy, ux]) - u0) @ a @ (np.array([uy, ux]) - u0) + 3.0 for ux in (-1, 0, 1)]
                   for uy in (-1, 0, 1)])
-    uy, ux, ok = _fit_offset(d)
+    uy, ux, ok = fit_offset(d)
     assert ok
     np.testing.assert_allclose([uy, ux], u0, atol=1e-12)
     np.testing.assert_allclose(quadratic_offset_oracle(d), u0, atol=1e-12)
     saddle = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
-    assert not _fit_offset(saddle)[2] and quadratic_offset_oracle(saddle) is None
+    assert not fit_offset(saddle)[2] and quadratic_offset_oracle(saddle) is None
     far = np.array([[0.5 * ((uy - 1.8) ** 2 + ux * ux) for ux in (-1, 0, 1)] for uy in (-1, 0, 1)])
-    assert not _fit_offset(far)[2] and quadratic_offset_oracle(far) is None  # |u*| > 1: keep the integer
-    assert not _fit_offset(np.full((3, 3), 2.0))[2]  # flat: A = 0 is not positive definite
+    assert not fit_offset(far)[2] and quadratic_offset_oracle(far) is None  # |u*| > 1: keep the integer
+    assert not fit_offset(np.full((3, 3), 2.0))[2]  # flat: A = 0 is not positive definite
 
 
 def test_flow_from_tiles_matches_the_oracle_and_interpolates():
@@ -848,7 +849,7 @@ def test_lk_kernels_match_the_oracle_in_float64():
     """The Lucas–Kanade and Jacobi kernels before the float32 rounding: agreement to ~1e-14."""
     ref, alt = lk_pair("moving", (32, 40))
     gy, gx = np.empty(alt.shape), np.empty(alt.shape)
-    _gradient(alt, gy, gx)
+    gradient(alt, gy, gx)
     o_gy, o_gx = gradient_oracle(alt)
     np.testing.assert_array_equal(gy, o_gy)
     np.testing.assert_array_equal(gx, o_gx)
@@ -856,7 +857,7 @@ def test_lk_kernels_match_the_oracle_in_float64():
     tile = 8
     best = np.random.default_rng(1).integers(-2, 3, (7, 9, 2)).astype(np.int64)
     out, info = np.empty((7, 9, 2)), np.empty((7, 9, 3))
-    _lucas_kanade(ref, alt, gy, gx, tile, best, 2, out, info)
+    lucas_kanade(ref, alt, gy, gx, tile, best, 2, out, info)
     for i in range(7):
         for j in range(9):
             u, inf = lucas_kanade_oracle(ref, alt, 4 * i, 4 * j, tile, best[i, j], gradient=(o_gy, o_gx))
