@@ -169,3 +169,20 @@ def test_the_name_check_sees_a_stale_name():
     assert _resolves("spikeref.align.align_tiles") and _resolves("effects.noise_fraction")
     assert _resolves("oracles.align.align_tiles_oracle")
     assert not _resolves("spikeref.align._noise_correlation_gone") and not _resolves("spikeref.io.dat.read_dat")
+
+
+def test_each_golden_file_s_row_names_the_registry_s_function_and_oracle():
+    """The three copies of the audit map agree: the row of docs/equations.md that lists a golden file names
+    the function and the oracle the registry (and so golden/manifest.json) gives for that case."""
+    rows = _audit_table()
+    wrong = []
+    for case in CASES:
+        mine = [r for r in rows if f"`{case.name}.npz`" in r]
+        text = " ".join(mine).replace("`spikeref.", "`")
+        for field in (case.function, case.oracle):
+            first = re.match(r"spikeref\.([\w.]+)", field).group(1)
+            module, _, name = first.rpartition(".")
+            short = [first, f"{module.rpartition('.')[2]}.{name}", name]
+            if not any(f"`{s}" in text or f" {s}" in text or f"({s}" in text for s in short):
+                wrong.append(f"{case.name}: its row names no {first}")
+    assert not wrong, "\n".join(wrong)
