@@ -88,44 +88,92 @@ def _flow_at(bank, f, y, x, h, w):
 
 
 @njit(parallel=True)
-def _composed_warp(counts, bank, hops, targets, inv_window, out):
-    """counts (n, C, h, w), bank (nf, 2, h, w), hops (P, L) int64 (−1: no move), targets (P,) → out (C, h, w)."""
+def _composed_warp(counts, bank, hop_flow, hop_parent, hop_start, leaf, targets, inv_window, out):
+    """counts (n, C, h, w), bank (nf, 2, h, w) → out (C, h, w).
+
+    The paths' hops as a tree (:func:`_hop_tree`): node ``q`` of hop ``m`` (``hop_start[m] ≤ q <
+    hop_start[m + 1]``) moves the position of its parent node (``hop_parent[q]``; ``−1``: the pixel)
+    by flow ``hop_flow[q]`` (``−1``: no move); path ``p`` ends at node ``leaf[p]`` and samples window
+    ``targets[p]``.  Paths that share their first hops share those positions; each path's position
+    is the same sum, in the same order, as hop by hop along the path alone.
+    """
     n, nc, h, w = counts.shape
-    npath, nhop = hops.shape
+    npath = leaf.shape[0]
+    nhop = hop_start.shape[0] - 1
+    nnode = hop_flow.shape[0]
     for y in prange(h):
         acc = np.zeros(nc)
+        py = np.empty(nnode)
+        px = np.empty(nnode)
         for x in range(w):
-            acc[:] = 0.0
-            wsum = 0.0
-            for p in range(npath):
-                sy = np.float64(y)
-                sx = np.float64(x)
-                for m in range(nhop):
-                    f = hops[p, m]
+            for m in range(nhop):
+                for q in range(hop_start[m], hop_start[m + 1]):
+                    parent = hop_parent[q]
+                    sy = np.float64(y) if parent < 0 else py[parent]
+                    sx = np.float64(x) if parent < 0 else px[parent]
+                    f = hop_flow[q]
                     if f >= 0:
                         dy, dx = _flow_at(bank, f, sy, sx, h, w)
                         sy += dy
                         sx += dx
+                    py[q] = sy
+                    px[q] = sx
+            acc[:] = 0.0
+            wsum = 0.0
+            for p in range(npath):
+                q = leaf[p]
+                if q >= 0:
+                    sy = py[q]
+                    sx = px[q]
+                else:  # a path of no hops
+                    sy = np.float64(y)
+                    sx = np.float64(x)
                 if sy < -0.5 or sy > h - 0.5 or sx < -0.5 or sx > w - 0.5:
                     continue
                 y0 = int(np.floor(sy))
                 x0 = int(np.floor(sx))
                 wy = _cr(sy - y0)
                 wx = _cr(sx - x0)
+                xa = _clamp(x0 - 1, w)
+                xb = _clamp(x0, w)
+                xc = _clamp(x0 + 1, w)
+                xd = _clamp(x0 + 2, w)
                 t = targets[p]
                 for c in range(nc):
                     s = 0.0
                     for a in range(4):
-                        yy = _clamp(y0 - 1 + a, h)
-                        row = (wx[0] * counts[t, c, yy, _clamp(x0 - 1, w)] + wx[1] * counts[t, c, yy, _clamp(x0, w)]
-                               + wx[2] * counts[t, c, yy, _clamp(x0 + 1, w)]
-                               + wx[3] * counts[t, c, yy, _clamp(x0 + 2, w)])
+                        plane_row = counts[t, c, _clamp(y0 - 1 + a, h)]
+                        row = (wx[0] * plane_row[xa] + wx[1] * plane_row[xb] + wx[2] * plane_row[xc]
+                               + wx[3] * plane_row[xd])
                         s += wy[a] * row
                     acc[c] += s
                 wsum += 1.0
             for c in range(nc):
                 v = acc[c] * inv_window / wsum if wsum > 0 else 0.0
                 out[c, y, x] = min(max(v, 0.0), 1.0)  # the cubic may overshoot; a rate lies in [0, 1]
+
+
+def _hop_tree(hops: np.ndarray):
+    """The paths' hop sequences as a tree: paths with the same first ``m + 1`` hops share node ``q`` of hop ``m``.
+
+    Returns ``(hop_flow, hop_parent, hop_start, leaf)`` for :func:`_composed_warp`.
+    """
+    npath, nhop = hops.shape
+    flow, parent, start = [], [], [0]
+    node_of = {}  # (hop, prefix) → node
+    leaf = np.full(npath, -1, np.int64)
+    for m in range(nhop):
+        for p in range(npath):
+            key = tuple(int(v) for v in hops[p, : m + 1])
+            if key not in node_of:
+                node_of[key] = len(flow)
+                flow.append(key[-1])
+                parent.append(node_of[key[:-1]] if m else -1)
+        start.append(len(flow))
+    if nhop:
+        for p in range(npath):
+            leaf[p] = node_of[tuple(int(v) for v in hops[p])]
+    return (np.asarray(flow, np.int64), np.asarray(parent, np.int64), np.asarray(start, np.int64), leaf)
 
 
 def path_table(K: int, L: int) -> list[tuple]:
@@ -175,7 +223,8 @@ def composed_warp(counts, bank, hops, targets, window: float) -> np.ndarray:
     if isinstance(window, bool) or not np.isfinite(window) or window <= 0:
         raise ValueError(f"window must be a positive number of planes; got {window!r}")
     out = np.zeros(c.shape[1:], np.float32)
+    hop_flow, hop_parent, hop_start, leaf = _hop_tree(hp)
     _composed_warp(np.ascontiguousarray(c, dtype=np.float32), np.ascontiguousarray(b, dtype=np.float32),
-                   np.ascontiguousarray(hp, dtype=np.int64), np.ascontiguousarray(tg, dtype=np.int64),
+                   hop_flow, hop_parent, hop_start, leaf, np.ascontiguousarray(tg, dtype=np.int64),
                    1.0 / float(window), out)
     return out

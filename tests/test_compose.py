@@ -34,6 +34,30 @@ def test_matches_the_oracle(h, w, nhop, seed):
     np.testing.assert_allclose(got, composed_warp_oracle(counts, bank, hops, targets, 10), rtol=1e-5, atol=1e-6)
 
 
+def test_paths_share_the_positions_of_their_common_first_hops():
+    # The kernel moves each distinct sequence of first hops once: K + K² + … + K^L nodes for the K^L paths
+    # of Eq. 14–15 when every prefix has its own flow; paths in any order give the same frame.
+    from spikeref.compose import _hop_tree
+
+    rng = np.random.default_rng(2)
+    paths = path_table(3, 3)
+    table, hops = {}, np.empty((27, 3), int)
+    for p, path in enumerate(paths):
+        for m in range(3):
+            table.setdefault(path[: m + 1], -1 if path[m] == 0 else len(table) % 6)  # one flow per prefix
+            hops[p, m] = table[path[: m + 1]]
+    flow, parent, start, leaf = _hop_tree(hops)
+    assert list(start) == [0, 3, 12, 39] and len(set(leaf)) == 27
+    assert all(parent[q] == -1 for q in range(3)) and all(0 <= parent[q] < 3 for q in range(3, 12))
+    counts = rng.integers(0, 11, (7, 2, 9, 11)).astype(np.float32)
+    bank = rng.uniform(-1.5, 1.5, (6, 2, 9, 11)).astype(np.float32)
+    targets = np.array([3 + sum(path) for path in paths])
+    got = composed_warp(counts, bank, hops, targets, 10)
+    np.testing.assert_allclose(got, composed_warp_oracle(counts, bank, hops, targets, 10), rtol=1e-5, atol=1e-6)
+    order = rng.permutation(27)
+    np.testing.assert_allclose(composed_warp(counts, bank, hops[order], targets[order], 10), got, rtol=1e-6, atol=1e-7)
+
+
 def test_integer_flows_reduce_to_shifted_windows():
     """With whole-pixel flows the cubic hits samples exactly: the average of the shifted windows."""
     rng = np.random.default_rng(2)
