@@ -45,7 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spikeref._jit import njit, prange
+from spikeref.denoise._unet_kernels import conv3x3_direct, maxpool_into, upsample_concat_into
 from spikeref.io.atomic import atomic_write
 
 __all__ = ["UNetSpec", "UNet", "layer_shapes", "conv3x3", "WEIGHTS_FORMAT"]
@@ -108,127 +108,6 @@ def layer_shapes(spec: UNetSpec) -> dict[str, tuple[int, int]]:
 
 
 # ----------------------------------------------------------------------------- convolution
-@njit
-def _split_job(job, channels, rows):
-    # job over (n, channels, rows) in C order -> (image, channel, row)
-    i = job // (channels * rows)
-    rest = job - i * channels * rows
-    k = rest // rows
-    return i, k, rest - k * rows
-
-
-@njit(fastmath={"contract"}, inline="always")
-def _nine_taps(k, u0, u1, u2, v0, v1, v2, s0, s1, s2):
-    # one output channel's 3×3 kernel k on the rows above (u), at (v) and below (s) the pixel
-    return ((k[0, 0] * u0 + k[0, 1] * u1 + k[0, 2] * u2)
-            + (k[1, 0] * v0 + k[1, 1] * v1 + k[1, 2] * v2)
-            + (k[2, 0] * s0 + k[2, 1] * s1 + k[2, 2] * s2))
-
-
-@njit
-def _store_row(src, dst, slope, act):
-    # dst[1 : w + 1] = src, through LeakyReLU when act
-    for x in range(src.shape[0]):
-        v = src[x]
-        if act and v < 0:
-            v *= slope
-        dst[x + 1] = v
-
-
-@njit(parallel=True, fastmath={"contract"}, error_model="numpy")
-def _conv3x3_direct(xp, weight, bias, slope, act, out):
-    # xp: (n, cin, h + 2, w + 2) float32, zero border; weight: (cout, cin, 3, 3) float32;
-    # bias: (cout,) float32; out: (n, cout, h + 2, w + 2) float32 -- the interior is written,
-    # the border is left to the caller.  One job = one output row of four output channels
-    # (the last group computes the last channel again where cout is not a multiple of 4, and
-    # stores it once).  fastmath
-    # "contract" allows only the fusion of a product and a sum into one FMA; no reassociation.
-    n, cin, hp, wp = xp.shape
-    cout = weight.shape[0]
-    h = hp - 2
-    w = wp - 2
-    groups = (cout + 3) // 4
-    for job in prange(n * groups * h):
-        i, g, y = _split_job(job, groups, h)
-        o0 = 4 * g
-        o1 = min(o0 + 1, cout - 1)
-        o2 = min(o0 + 2, cout - 1)
-        o3 = min(o0 + 3, cout - 1)
-        # Fresh rows, so LLVM knows they alias neither each other nor the input.
-        a = np.empty(w, dtype=np.float32)
-        b = np.empty(w, dtype=np.float32)
-        c = np.empty(w, dtype=np.float32)
-        d = np.empty(w, dtype=np.float32)
-        a[:] = bias[o0]
-        b[:] = bias[o1]
-        c[:] = bias[o2]
-        d[:] = bias[o3]
-        for ci in range(cin):
-            r0 = xp[i, ci, y]
-            r1 = xp[i, ci, y + 1]
-            r2 = xp[i, ci, y + 2]
-            wa = weight[o0, ci]
-            wb = weight[o1, ci]
-            wc = weight[o2, ci]
-            wd = weight[o3, ci]
-            for x in range(w):
-                u0 = r0[x]
-                u1 = r0[x + 1]
-                u2 = r0[x + 2]
-                v0 = r1[x]
-                v1 = r1[x + 1]
-                v2 = r1[x + 2]
-                s0 = r2[x]
-                s1 = r2[x + 1]
-                s2 = r2[x + 2]
-                a[x] += _nine_taps(wa, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-                b[x] += _nine_taps(wb, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-                c[x] += _nine_taps(wc, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-                d[x] += _nine_taps(wd, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-        _store_row(a, out[i, o0, y + 1], slope, act)
-        if o0 + 1 < cout:  # the clamped repeats of the last channel are not stored
-            _store_row(b, out[i, o1, y + 1], slope, act)
-        if o0 + 2 < cout:
-            _store_row(c, out[i, o2, y + 1], slope, act)
-        if o0 + 3 < cout:
-            _store_row(d, out[i, o3, y + 1], slope, act)
-
-
-@njit(parallel=True)
-def _maxpool_into(t, out):
-    # t: (n, c, h + 2, w + 2) with a border; out: (n, c, h/2 + 2, w/2 + 2), interior written:
-    # 2×2 max-pooling of t's interior.
-    n, c, hp, wp = out.shape
-    h2 = hp - 2
-    w2 = wp - 2
-    for job in prange(n * c * h2):
-        i, k, y = _split_job(job, c, h2)
-        top = t[i, k, 2 * y + 1]
-        bottom = t[i, k, 2 * y + 2]
-        dst = out[i, k, y + 1]
-        for x in range(w2):
-            dst[x + 1] = max(max(top[2 * x + 1], top[2 * x + 2]), max(bottom[2 * x + 1], bottom[2 * x + 2]))
-
-
-@njit(parallel=True)
-def _upsample_concat_into(low, skip, out):
-    # low: (n, c, h/2 + 2, w/2 + 2), skip: (n, cs, h + 2, w + 2), both with a border;
-    # out: (n, c + cs, h + 2, w + 2), interior written: [nearest ×2 of low, skip].
-    n, ct, hp, wp = out.shape
-    c = low.shape[1]
-    h = hp - 2
-    w = wp - 2
-    for job in prange(n * ct * h):
-        i, k, y = _split_job(job, ct, h)
-        dst = out[i, k, y + 1]
-        if k < c:
-            src = low[i, k, y // 2 + 1]
-            for x in range(w):
-                dst[x + 1] = src[x // 2 + 1]
-        else:
-            src = skip[i, k - c, y + 1]
-            for x in range(w):
-                dst[x + 1] = src[x + 1]
 
 
 def _padded_empty(n: int, c: int, h: int, w: int) -> np.ndarray:
@@ -283,7 +162,7 @@ def _buffers() -> _Buffers:
 def _conv_padded(xp: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
     n, _, hp, wp = xp.shape
     out = _padded_empty(n, weight.shape[0], hp - 2, wp - 2)
-    _conv3x3_direct(xp, weight, bias, np.float32(0.0 if slope is None else slope), slope is not None, out)
+    conv3x3_direct(xp, weight, bias, np.float32(0.0 if slope is None else slope), slope is not None, out)
     return out
 
 
@@ -482,7 +361,7 @@ class UNet:
             """The layer on ``t``, whose buffer no later layer reads: it is released."""
             weight, bias = params[f"{name}.weight"], params[f"{name}.bias"]
             out = pool.take(t.shape[0], weight.shape[0], t.shape[2] - 2, t.shape[3] - 2)
-            _conv3x3_direct(t, weight, bias, np.float32(slope if act else 0.0), act, out)
+            conv3x3_direct(t, weight, bias, np.float32(slope if act else 0.0), act, out)
             pool.give(t)
             return out
 
@@ -493,7 +372,7 @@ class UNet:
         for k in range(1, self.spec.depth + 1):
             c, hh, ww = t.shape[1], t.shape[2] - 2, t.shape[3] - 2
             pooled = pool.take(n, c, hh // 2, ww // 2)
-            _maxpool_into(t, pooled)
+            maxpool_into(t, pooled)
             t = conv(f"enc{k}b", conv(f"enc{k}a", pooled))
             skips.append(t)
         skips.pop()  # the bottleneck is t itself
@@ -501,7 +380,7 @@ class UNet:
             skip = skips.pop()
             c, hh, ww = t.shape[1], skip.shape[2] - 2, skip.shape[3] - 2
             cat = pool.take(n, c + skip.shape[1], hh, ww)
-            _upsample_concat_into(t, skip, cat)  # [nearest ×2 of t, skip]
+            upsample_concat_into(t, skip, cat)  # [nearest ×2 of t, skip]
             pool.give(t)
             pool.give(skip)
             t = conv(f"dec{k}b", conv(f"dec{k}a", cat))

@@ -1,0 +1,140 @@
+"""The U-Net's Numba kernels (:mod:`spikeref.denoise.unet` reads like the network; the speed is here).
+
+The direct 3×3 convolution (one parallel job per output row and group of four output channels, the
+nine taps of each input channel summed as one expression over rows held in the L1 cache; fused
+multiply-adds only, no reassociation, so the result does not depend on the thread count), 2×2
+max-pooling and the nearest upsampling fused with the skip concatenation.  Activations are
+channel-first with a zero border of one pixel; every kernel writes interiors only.  Nothing here checks
+its arguments: :func:`spikeref.denoise.unet.conv3x3` and :class:`~spikeref.denoise.unet.UNet` do.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from spikeref._jit import njit, prange
+
+__all__ = ["conv3x3_direct", "maxpool_into", "nine_taps", "split_job", "store_row", "upsample_concat_into"]
+
+
+@njit
+def split_job(job, channels, rows):
+    # job over (n, channels, rows) in C order -> (image, channel, row)
+    i = job // (channels * rows)
+    rest = job - i * channels * rows
+    k = rest // rows
+    return i, k, rest - k * rows
+
+
+@njit(fastmath={"contract"}, inline="always")
+def nine_taps(k, u0, u1, u2, v0, v1, v2, s0, s1, s2):
+    # one output channel's 3×3 kernel k on the rows above (u), at (v) and below (s) the pixel
+    return ((k[0, 0] * u0 + k[0, 1] * u1 + k[0, 2] * u2)
+            + (k[1, 0] * v0 + k[1, 1] * v1 + k[1, 2] * v2)
+            + (k[2, 0] * s0 + k[2, 1] * s1 + k[2, 2] * s2))
+
+
+@njit
+def store_row(src, dst, slope, act):
+    # dst[1 : w + 1] = src, through LeakyReLU when act
+    for x in range(src.shape[0]):
+        v = src[x]
+        if act and v < 0:
+            v *= slope
+        dst[x + 1] = v
+
+
+@njit(parallel=True, fastmath={"contract"}, error_model="numpy")
+def conv3x3_direct(xp, weight, bias, slope, act, out):
+    # xp: (n, cin, h + 2, w + 2) float32, zero border; weight: (cout, cin, 3, 3) float32;
+    # bias: (cout,) float32; out: (n, cout, h + 2, w + 2) float32 -- the interior is written,
+    # the border is left to the caller.  One job = one output row of four output channels
+    # (the last group computes the last channel again where cout is not a multiple of 4, and
+    # stores it once).  fastmath
+    # "contract" allows only the fusion of a product and a sum into one FMA; no reassociation.
+    n, cin, hp, wp = xp.shape
+    cout = weight.shape[0]
+    h = hp - 2
+    w = wp - 2
+    groups = (cout + 3) // 4
+    for job in prange(n * groups * h):
+        i, g, y = split_job(job, groups, h)
+        o0 = 4 * g
+        o1 = min(o0 + 1, cout - 1)
+        o2 = min(o0 + 2, cout - 1)
+        o3 = min(o0 + 3, cout - 1)
+        # Fresh rows, so LLVM knows they alias neither each other nor the input.
+        a = np.empty(w, dtype=np.float32)
+        b = np.empty(w, dtype=np.float32)
+        c = np.empty(w, dtype=np.float32)
+        d = np.empty(w, dtype=np.float32)
+        a[:] = bias[o0]
+        b[:] = bias[o1]
+        c[:] = bias[o2]
+        d[:] = bias[o3]
+        for ci in range(cin):
+            r0 = xp[i, ci, y]
+            r1 = xp[i, ci, y + 1]
+            r2 = xp[i, ci, y + 2]
+            wa = weight[o0, ci]
+            wb = weight[o1, ci]
+            wc = weight[o2, ci]
+            wd = weight[o3, ci]
+            for x in range(w):
+                u0 = r0[x]
+                u1 = r0[x + 1]
+                u2 = r0[x + 2]
+                v0 = r1[x]
+                v1 = r1[x + 1]
+                v2 = r1[x + 2]
+                s0 = r2[x]
+                s1 = r2[x + 1]
+                s2 = r2[x + 2]
+                a[x] += nine_taps(wa, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+                b[x] += nine_taps(wb, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+                c[x] += nine_taps(wc, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+                d[x] += nine_taps(wd, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+        store_row(a, out[i, o0, y + 1], slope, act)
+        if o0 + 1 < cout:  # the clamped repeats of the last channel are not stored
+            store_row(b, out[i, o1, y + 1], slope, act)
+        if o0 + 2 < cout:
+            store_row(c, out[i, o2, y + 1], slope, act)
+        if o0 + 3 < cout:
+            store_row(d, out[i, o3, y + 1], slope, act)
+
+
+@njit(parallel=True)
+def maxpool_into(t, out):
+    # t: (n, c, h + 2, w + 2) with a border; out: (n, c, h/2 + 2, w/2 + 2), interior written:
+    # 2×2 max-pooling of t's interior.
+    n, c, hp, wp = out.shape
+    h2 = hp - 2
+    w2 = wp - 2
+    for job in prange(n * c * h2):
+        i, k, y = split_job(job, c, h2)
+        top = t[i, k, 2 * y + 1]
+        bottom = t[i, k, 2 * y + 2]
+        dst = out[i, k, y + 1]
+        for x in range(w2):
+            dst[x + 1] = max(max(top[2 * x + 1], top[2 * x + 2]), max(bottom[2 * x + 1], bottom[2 * x + 2]))
+
+
+@njit(parallel=True)
+def upsample_concat_into(low, skip, out):
+    # low: (n, c, h/2 + 2, w/2 + 2), skip: (n, cs, h + 2, w + 2), both with a border;
+    # out: (n, c + cs, h + 2, w + 2), interior written: [nearest ×2 of low, skip].
+    n, ct, hp, wp = out.shape
+    c = low.shape[1]
+    h = hp - 2
+    w = wp - 2
+    for job in prange(n * ct * h):
+        i, k, y = split_job(job, ct, h)
+        dst = out[i, k, y + 1]
+        if k < c:
+            src = low[i, k, y // 2 + 1]
+            for x in range(w):
+                dst[x + 1] = src[x // 2 + 1]
+        else:
+            src = skip[i, k - c, y + 1]
+            for x in range(w):
+                dst[x + 1] = src[x + 1]
