@@ -338,7 +338,7 @@ def lucas_kanade(ref, alt, gy, gx, tile, best, iterations, out, info):
 
 @njit
 def jacobi_sweeps(hat, info, variance, lam, sweeps, out):
-    """The Jacobi sweeps of :func:`_regularise` (``hat, out (ny, nx, 2)``, ``info (ny, nx, 3)``)."""
+    """The Jacobi sweeps of the regularised tile field (``hat, out (ny, nx, 2)``, ``info (ny, nx, 3)``)."""
     ny, nx = hat.shape[0], hat.shape[1]
     cur = hat.copy()
     for _ in range(sweeps):

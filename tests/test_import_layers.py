@@ -54,10 +54,9 @@ LAYERS = {
 }
 NAMES = {0: "Numba set-up", 1: "io", 2: "core", 3: "algorithms", 4: "pipeline", 5: "application"}
 
-#: Application modules keep the imports of their commands inside the functions that run them, so
-#: that ``spikeref --help`` and a command's argument errors answer without loading Numba's kernels;
-#: the library (layers 0–4) imports at the top, except for optional extras.
-DEFERRED_ALLOWED = 5
+# Application modules (layer 5) keep the imports of their commands inside the functions that run
+# them, so that ``spikeref --help`` and a command's argument errors answer without loading Numba's
+# kernels; the library (layers 0–4) imports at the top, except for optional extras.
 
 
 def _modules():
@@ -70,7 +69,11 @@ def _modules():
 def _layer(module: str):
     if module.startswith("spikeref.oracles") and module != "spikeref.oracles.golden_cases":
         return "oracle"
-    best = max((p for p in LAYERS if module == p or module.startswith(p + ".")), key=len, default=None)
+    if module == "spikeref":
+        return LAYERS["spikeref"]
+    # longest listed prefix; the package itself is no prefix: a module nobody listed has no layer
+    best = max((p for p in LAYERS if p != "spikeref" and (module == p or module.startswith(p + "."))), key=len,
+               default=None)
     return None if best is None else LAYERS[best]
 
 
@@ -90,13 +93,16 @@ def _imports(path: Path, module: str):
             else:
                 target = node.module or ""
             if target == "spikeref" or target.startswith("spikeref."):
-                names = [a.name for a in node.names]
-                # ``from spikeref import baselines`` imports the module spikeref.baselines
-                if target == "spikeref" and all(_layer(f"spikeref.{n}") is not None for n in names):
-                    for n in names:
-                        yield f"spikeref.{n}", [], node.lineno, id(node) in deferred_nodes
-                    continue
-                yield target, names, node.lineno, id(node) in deferred_nodes
+                # ``from spikeref.denoise import blindspot`` imports the module spikeref.denoise.blindspot;
+                # ``from spikeref import _EXPORTS`` a name of the package itself
+                names = []
+                for a in node.names:
+                    if f"{target}.{a.name}" in MODULES:
+                        yield f"{target}.{a.name}", [], node.lineno, id(node) in deferred_nodes
+                    else:
+                        names.append(a.name)
+                if names:
+                    yield target, names, node.lineno, id(node) in deferred_nodes
         elif isinstance(node, ast.Import):
             for a in node.names:
                 if a.name == "spikeref" or a.name.startswith("spikeref."):
@@ -142,12 +148,8 @@ def test_library_modules_import_the_package_at_the_top(module):
     assert not deferred, "\n".join(deferred)
 
 
-def test_no_import_circle_among_top_level_imports():
-    graph = {m: {t for t, _, _, inner in _imports(p, m) if not inner and t in MODULES and t != m}
-             for m, p in MODULES.items()}
-    # a package's __init__ importing its own submodules is how a package is built, not a circle
-    for m in graph:
-        graph[m] = {t for t in graph[m] if not (MODULES[t].name == "__init__.py" and m.startswith(t + "."))}
+def _circles(graph: dict) -> list[str]:
+    """Every circle a depth-first walk of ``graph`` (module → modules it imports) meets."""
     state, circles = {}, []
 
     def visit(node, trail):
@@ -162,6 +164,16 @@ def test_no_import_circle_among_top_level_imports():
     for m in sorted(graph):
         if m not in state:
             visit(m, [m])
+    return circles
+
+
+def test_no_import_circle_among_top_level_imports():
+    graph = {m: {t for t, _, _, inner in _imports(p, m) if not inner and t in MODULES and t != m}
+             for m, p in MODULES.items()}
+    # a package's __init__ importing its own submodules is how a package is built, not a circle
+    for m in graph:
+        graph[m] = {t for t in graph[m] if not (MODULES[t].name == "__init__.py" and m.startswith(t + "."))}
+    circles = _circles(graph)
     assert not circles, "\n".join(circles)
 
 
@@ -176,3 +188,10 @@ def test_the_layer_test_sees_a_wrong_import(tmp_path):
     assert ("spikeref.align", ["align"], 4, True) in found
     assert _layer("spikeref.pipeline") > _layer("spikeref.bayer")
     assert _layer("spikeref.oracles.align") == "oracle" and _layer("spikeref.oracles.golden_cases") == 5
+    assert _layer("spikeref.new_algorithm") is None and _layer("spikeref") == 5  # an unlisted module has none
+    bad.write_text("from spikeref import _EXPORTS, baselines\nfrom spikeref.denoise import blindspot\n")
+    found = list(_imports(bad, "spikeref.render"))
+    assert ("spikeref", ["_EXPORTS"], 1, False) in found and ("spikeref.baselines", [], 1, False) in found
+    assert ("spikeref.denoise.blindspot", [], 2, False) in found
+    assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a -> b -> c -> a"]
+    assert _circles({"a": {"b"}, "b": set()}) == []

@@ -126,8 +126,8 @@ def test_every_interior_value_is_written_and_borders_are_zero(monkeypatch):
 
 def test_kept_buffers_give_the_same_output_and_never_alias_it():
     # A stream of frames of one size reuses the activation buffers of the pass before; the output
-    # must be the caller's own array, each pass must equal a pass on fresh buffers, and a pass on
-    # another size must drop the kept buffers (what is kept stays bounded).
+    # must be the caller's own array, each pass must equal a pass on fresh buffers, and what is kept
+    # stays bounded.
     import spikeref.denoise.unet as unet
 
     net = UNet.random(UNetSpec(width=6, depth=3), seed=3)
@@ -146,8 +146,16 @@ def test_kept_buffers_give_the_same_output_and_never_alias_it():
     assert {k: len(v) for k, v in unet._buffers().free.items()} == kept  # the same buffers, no more
     first[...] = -1.0  # the output is not a pooled buffer
     np.testing.assert_array_equal(net(b), fresh_b)
+    # Two input sizes in turn (the blind and mixed modes alternate 16·N and N images) keep both sets;
+    # a third size drops the oldest; release_buffers frees what is kept.
     net(rng.random((1, 8, 16)).astype(np.float32))
-    assert all(k[0] == 1 for k in unet._buffers().free)  # the other size's buffers were dropped
+    assert all(k[0] == 1 for k in unet._buffers().free)
+    assert sorted(unet._buffers().by_size) == [(1, 8, 16), (2, 24, 40)]
+    net(a)
+    assert {k: len(v) for k, v in unet._buffers().free.items()} == kept  # reused, not made again
+    net(rng.random((3, 8, 16)).astype(np.float32))
+    assert sorted(unet._buffers().by_size) == [(2, 24, 40), (3, 8, 16)]
+    assert unet.release_buffers() > 0 and unet._buffers().nbytes() == 0 and unet.release_buffers() == 0
 
 
 def test_conv_refuses_bad_arguments():

@@ -147,7 +147,10 @@ def fire(charge: np.ndarray, threshold, state: np.ndarray, *, out: np.ndarray | 
         raise ValueError(f"charge must have shape (T, H, W); got {charge.shape}")
     if check and (not np.all(np.isfinite(charge)) or (charge.size and charge.min() < 0)):
         raise ValueError("radiance must be finite and non-negative")
-    thresholds = np.broadcast_to(np.asarray(threshold, dtype=np.float64), charge.shape[1:])
+    thresholds = np.asarray(threshold, dtype=np.float64)
+    # one writable C-contiguous (H, W) array, whatever was given: one compiled signature of the kernel
+    thresholds = np.require(np.broadcast_to(thresholds, charge.shape[1:]) if thresholds.shape != charge.shape[1:]
+                            else thresholds, requirements=["C", "W"])
     if check and (not np.all(np.isfinite(thresholds)) or np.any(thresholds <= 0)):
         raise ValueError("threshold must be positive and finite (every pixel)")
     if not isinstance(state, np.ndarray) or state.shape != charge.shape[1:] or state.dtype != np.float64:
@@ -155,8 +158,9 @@ def fire(charge: np.ndarray, threshold, state: np.ndarray, *, out: np.ndarray | 
                          f"{getattr(state, 'shape', None)}")
     if out is None:
         out = np.empty(charge.shape, dtype=np.uint8)
-    elif not isinstance(out, np.ndarray) or out.shape != charge.shape or out.dtype != np.uint8:
-        raise ValueError(f"out must be uint8 of shape {charge.shape}; got {getattr(out, 'dtype', None)} "
-                         f"{getattr(out, 'shape', None)}")
-    _fire(charge, np.ascontiguousarray(thresholds), state, out)
+    elif (not isinstance(out, np.ndarray) or out.shape != charge.shape or out.dtype != np.uint8
+          or not out.flags.writeable):
+        raise ValueError(f"out must be a writable uint8 array of shape {charge.shape}; got "
+                         f"{getattr(out, 'dtype', None)} {getattr(out, 'shape', None)}")
+    _fire(charge, thresholds, state, out)
     return out
