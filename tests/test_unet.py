@@ -94,23 +94,23 @@ def test_network_output_does_not_depend_on_the_thread_count():
 def test_every_interior_value_is_written_and_borders_are_zero(monkeypatch):
     # The activations live in buffers from _padded_empty (np.empty inside, zero border): fill
     # the interiors with NaN first, and the network must still give the same finite output.
-    import spikeref.denoise.unet as unet
+    import spikeref.denoise._unet_kernels as unet
 
-    buf = unet._padded_empty(2, 3, 4, 5)
+    buf = unet.padded_empty(2, 3, 4, 5)
     assert buf.shape == (2, 3, 6, 7)
     assert not buf[:, :, [0, -1], :].any() and not buf[:, :, :, [0, -1]].any()
     net = UNet.random(UNetSpec(width=6, depth=3), seed=8)
     x = np.random.default_rng(9).random((2, 24, 40)).astype(np.float32)
     clean = net(x)
-    original = unet._padded_empty
+    original = unet.padded_empty
 
     def poisoned(n, c, h, w):
         b = original(n, c, h, w)
         b[:, :, 1:-1, 1:-1] = np.nan
         return b
 
-    monkeypatch.setattr(unet, "_padded_empty", poisoned)
-    unet._buffers().start(None)  # drop this thread's kept buffers: every buffer is a new, poisoned one
+    monkeypatch.setattr(unet, "padded_empty", poisoned)
+    unet.buffers().start(None)  # drop this thread's kept buffers: every buffer is a new, poisoned one
     np.testing.assert_array_equal(net(x), clean)
     # Buffers kept from the pass before are handed out again: poison those too.
     original_take = unet._Buffers.take
@@ -128,34 +128,34 @@ def test_kept_buffers_give_the_same_output_and_never_alias_it():
     # A stream of frames of one size reuses the activation buffers of the pass before; the output
     # must be the caller's own array, each pass must equal a pass on fresh buffers, and what is kept
     # stays bounded.
-    import spikeref.denoise.unet as unet
+    import spikeref.denoise._unet_kernels as unet
 
     net = UNet.random(UNetSpec(width=6, depth=3), seed=3)
     rng = np.random.default_rng(4)
     a, b = (rng.random((2, 24, 40)).astype(np.float32) for _ in range(2))
-    unet._buffers().start(None)
+    unet.buffers().start(None)
     fresh_a = net(a)
-    unet._buffers().start(None)
+    unet.buffers().start(None)
     fresh_b = net(b)
     first = net(a)
-    kept = {k: len(v) for k, v in unet._buffers().free.items()}
+    kept = {k: len(v) for k, v in unet.buffers().free.items()}
     assert kept and all(n >= 1 for n in kept.values())
     second = net(b)
     np.testing.assert_array_equal(first, fresh_a)
     np.testing.assert_array_equal(second, fresh_b)
-    assert {k: len(v) for k, v in unet._buffers().free.items()} == kept  # the same buffers, no more
+    assert {k: len(v) for k, v in unet.buffers().free.items()} == kept  # the same buffers, no more
     first[...] = -1.0  # the output is not a pooled buffer
     np.testing.assert_array_equal(net(b), fresh_b)
     # Two input sizes in turn (the blind and mixed modes alternate 16·N and N images) keep both sets;
     # a third size drops the oldest; release_buffers frees what is kept.
     net(rng.random((1, 8, 16)).astype(np.float32))
-    assert all(k[0] == 1 for k in unet._buffers().free)
-    assert sorted(unet._buffers().by_size) == [(1, 8, 16), (2, 24, 40)]
+    assert all(k[0] == 1 for k in unet.buffers().free)
+    assert sorted(unet.buffers().by_size) == [(1, 8, 16), (2, 24, 40)]
     net(a)
-    assert {k: len(v) for k, v in unet._buffers().free.items()} == kept  # reused, not made again
+    assert {k: len(v) for k, v in unet.buffers().free.items()} == kept  # reused, not made again
     net(rng.random((3, 8, 16)).astype(np.float32))
-    assert sorted(unet._buffers().by_size) == [(2, 24, 40), (3, 8, 16)]
-    assert unet.release_buffers() > 0 and unet._buffers().nbytes() == 0 and unet.release_buffers() == 0
+    assert sorted(unet.buffers().by_size) == [(2, 24, 40), (3, 8, 16)]
+    assert unet.release_buffers() > 0 and unet.buffers().nbytes() == 0 and unet.release_buffers() == 0
 
 
 def test_conv_refuses_bad_arguments():

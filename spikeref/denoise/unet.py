@@ -28,7 +28,9 @@ eight pixels at a time.  Every output value is computed by one job in a fixed or
 result does not depend on the number of threads.  The measured alternatives (im2col + BLAS,
 the network's convolution until 2026-11-23, and one ``einsum`` per tap) are in
 :mod:`spikeref.denoise._conv_alternatives`, for ``benchmarks/test_speed_unet.py``; the network
-never calls them.
+never calls them.  The kernels, and the per-thread pool of activation buffers a pass
+reuses from the pass before (:func:`release_buffers` frees it), are in
+:mod:`spikeref.denoise._unet_kernels`.
 
 Weights file (``.npz``): ``format = "spikeref-unet-1"``, ``width``, ``depth``,
 ``negative_slope``, for each layer ``<name>.weight`` ``(out, in, 3, 3) float32`` and
@@ -39,13 +41,14 @@ weights were made).
 from __future__ import annotations
 
 import json
-import threading
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from spikeref.denoise._unet_kernels import conv3x3_direct, maxpool_into, upsample_concat_into
+from spikeref.denoise._unet_kernels import (
+    buffers, conv3x3_direct, maxpool_into, padded_empty, release_buffers, upsample_concat_into,
+)
 from spikeref.io.atomic import atomic_write
 
 __all__ = ["UNetSpec", "UNet", "layer_shapes", "conv3x3", "release_buffers", "WEIGHTS_FORMAT"]
@@ -108,84 +111,9 @@ def layer_shapes(spec: UNetSpec) -> dict[str, tuple[int, int]]:
 # ----------------------------------------------------------------------------- convolution
 
 
-def _padded_empty(n: int, c: int, h: int, w: int) -> np.ndarray:
-    """``(n, c, h + 2, w + 2) float32`` with a zero border and an uninitialised interior."""
-    buf = np.empty((n, c, h + 2, w + 2), dtype=np.float32)
-    buf[:, :, 0, :] = 0
-    buf[:, :, -1, :] = 0
-    buf[:, :, :, 0] = 0
-    buf[:, :, :, -1] = 0
-    return buf
-
-
-class _Buffers:
-    """The activation buffers of one thread's forward passes, kept for its next passes of the same size.
-
-    A fresh buffer of several MB is memory the operating system maps on first touch, page by page
-    (it zero-fills each page): at 250×400 that was ~5.5 ms of a 28 ms forward pass.  The buffers a
-    pass releases (an activation no later layer reads) are handed to the next request of the same
-    shape, in this pass or a later one, so a stream of frames of one size touches new memory only in
-    its first pass.  Kept, per input size, is for each buffer shape the most buffers of that shape a
-    pass has live at once: for the four 128×224 planes of a 250×400 frame and width 16, 45 MB, where
-    a pass has 25 MB live at its peak.  The buffers of the two most recent input sizes are kept (the
-    blind and mixed modes alternate two batch sizes); :func:`release_buffers` frees them.  The border
-    of every buffer stays zero: the kernels write interiors only, and every interior is written
-    before it is read.
-    """
-
-    KEEP_SIZES = 2
-
-    def __init__(self):
-        self.by_size: dict[tuple, dict[tuple, list]] = {}  # input size → buffer shape → free buffers
-        self.free: dict[tuple, list] = {}
-
-    def start(self, size) -> None:
-        """Begin a pass on input ``size``; ``None`` drops every kept buffer."""
-        if size is None:
-            self.by_size, self.free = {}, {}
-            return
-        self.free = self.by_size.pop(size, {})
-        self.by_size[size] = self.free  # most recent last
-        while len(self.by_size) > self.KEEP_SIZES:
-            del self.by_size[next(iter(self.by_size))]
-
-    def take(self, n: int, c: int, h: int, w: int) -> np.ndarray:
-        stack = self.free.get((n, c, h, w))
-        return stack.pop() if stack else _padded_empty(n, c, h, w)
-
-    def give(self, buf: np.ndarray) -> None:
-        n, c, hp, wp = buf.shape
-        self.free.setdefault((n, c, hp - 2, wp - 2), []).append(buf)
-
-    def nbytes(self) -> int:
-        return sum(b.nbytes for free in self.by_size.values() for stack in free.values() for b in stack)
-
-
-_THREAD = threading.local()  # each thread its own buffers: two threads may run one network at once
-
-
-def _buffers() -> _Buffers:
-    pool = getattr(_THREAD, "buffers", None)
-    if pool is None:
-        pool = _THREAD.buffers = _Buffers()
-    return pool
-
-
-def release_buffers() -> int:
-    """Free the activation buffers the U-Net keeps for the calling thread's next passes; returns the bytes freed.
-
-    Forward passes keep their buffers for the next pass of the same size (:class:`UNet`): call this
-    when a thread is done with the network and its memory is wanted back.
-    """
-    pool = _buffers()
-    freed = pool.nbytes()
-    pool.start(None)
-    return freed
-
-
 def _conv_padded(xp: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
     n, _, hp, wp = xp.shape
-    out = _padded_empty(n, weight.shape[0], hp - 2, wp - 2)
+    out = padded_empty(n, weight.shape[0], hp - 2, wp - 2)
     conv3x3_direct(xp, weight, bias, np.float32(0.0 if slope is None else slope), slope is not None, out)
     return out
 
@@ -229,7 +157,7 @@ def conv3x3(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | 
         if not (np.isfinite(slope) and 0 <= slope < 1):
             raise ValueError(f"slope must be None or lie in [0, 1); got {slope!r}")
     n, cin, h, w = x.shape
-    xp = _padded_empty(n, cin, h, w)
+    xp = padded_empty(n, cin, h, w)
     xp[:, :, 1:-1, 1:-1] = x
     out = _conv_padded(xp, np.ascontiguousarray(weight, dtype=np.float32),
                        np.ascontiguousarray(bias, dtype=np.float32), slope)
@@ -378,7 +306,7 @@ class UNet:
         n, h, w = x.shape
         if h % self.spec.multiple or w % self.spec.multiple:  # __call__ pads; pooling needs it
             raise ValueError(f"_forward needs sizes that are multiples of {self.spec.multiple}; got {h}×{w}")
-        pool = _buffers()
+        pool = buffers()
         pool.start((n, h, w))
 
         def conv(name, t, act=True):
