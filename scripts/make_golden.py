@@ -11,7 +11,9 @@ tolerances.  Inputs come from fixed seeds, so running this again rewrites identi
 arrays.  ``--only`` regenerates the named cases and keeps the other files as they are
 (the pipeline oracles take minutes each); ``--manifest-only`` regenerates no file but the
 manifest.  Either way every manifest entry is rewritten from the registry
-(``spikeref/oracles/golden_cases.py``), with the dtypes and shapes of the files on disk.
+(``spikeref/oracles/golden_cases.py``), with the dtypes and shapes of the files on disk, and the
+table of ``docs/equations.md`` (between its markers) from the audit map
+(``spikeref/oracles/audit_map.py``), its golden files and their links from the same registry.
 """
 
 from __future__ import annotations
@@ -22,7 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
+from spikeref.oracles.audit_map import with_audit_table
 from spikeref.oracles.golden_cases import CASES, build_manifest
+
+EQUATIONS = Path(__file__).resolve().parents[1] / "docs" / "equations.md"
 
 
 def main(argv=None) -> None:
@@ -31,7 +36,8 @@ def main(argv=None) -> None:
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--only", nargs="+", default=None, metavar="NAME", help="regenerate only these cases")
     group.add_argument("--manifest-only", action="store_true",
-                       help="regenerate no case file, only manifest.json (from the registry and the files)")
+                       help="regenerate no case file, only manifest.json (from the registry and the files) and "
+                            "the table of docs/equations.md (from the audit map)")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     names = [c.name for c in CASES]
@@ -58,6 +64,7 @@ def main(argv=None) -> None:
     except FileNotFoundError as exc:
         parser.error(str(exc))
     (args.out / "manifest.json").write_text(json.dumps(manifest, indent=2, ensure_ascii=False) + "\n")
+    EQUATIONS.write_text(with_audit_table(EQUATIONS.read_text(encoding="utf-8")), encoding="utf-8")
 
 
 if __name__ == "__main__":

@@ -148,6 +148,18 @@ def _resolves(name: str) -> bool:
     return False
 
 
+def test_audit_map_is_the_registry_s():
+    """docs/equations.md's table is what scripts/make_golden.py writes from spikeref/oracles/audit_map.py."""
+    from spikeref.oracles.audit_map import AUDIT_MAP, render_golden, with_audit_table
+
+    text = (ROOT / "docs" / "equations.md").read_text(encoding="utf-8")
+    assert with_audit_table(text) == text, ("docs/equations.md differs from the audit map: "
+                                            "python scripts/make_golden.py --manifest-only")
+    assert len(AUDIT_MAP) == len(_audit_table())
+    with pytest.raises(KeyError, match="not_a_case"):
+        render_golden("{not_a_case}")
+
+
 def test_audit_map_names_every_golden_file_and_no_other():
     named = set(re.findall(r"`([\w]+)\.npz`", "\n".join(_audit_table())))
     assert named == {c.name for c in CASES}
