@@ -92,9 +92,11 @@ warping there scores 2.9 dB below plain accumulation over the same support.
   more than ``z`` standard deviations of ``D(c) − D(u)`` under white noise — ``√(12 S_k Σ v_k²)``
   (L2) or ``√(1.128 Σ v_k)`` (L1) over the tile, ``v_k`` the noise variance of a level-``k``
   pixel and ``S_k`` the inflation by the pyramid blur's spatial correlation
-  (:func:`_level_noise_factors`).  Zero is tried at every level, even outside the search window
+  (:func:`level_noise_factors`).  Zero is tried at every level, even outside the search window
   around the centre, so that a spurious coarse vector is not handed down to every finer tile.
 
+(The noise model — :func:`level_noise_factors`, :func:`local_noise`, :func:`estimate_noise_correlation`,
+:data:`MIN_CORRELATION`, :func:`zero_motion_test` — is in :mod:`spikeref.align_noise`.)
 ``v`` is a per-pixel map at level 0 (``noise``; default :func:`local_noise` of the two images,
 Immerkær's estimator over a 15×15 box: spike noise depends on the rate) carried to level ``k`` by
 the pyramid's blur; ``ρ`` is ``correlation`` (default :func:`estimate_noise_correlation`), clipped
@@ -146,10 +148,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from spikeref._align_kernels import (
-    PD_TOLERANCE, PYRAMID_KERNEL, SLACK, blur_decimate_kernel, dense_flow, gradient, integral_image,
-    jacobi_sweeps, lucas_kanade, search_tiles, subpixel_fit, upsample_tiles, zero_test_terms,
+    PD_TOLERANCE, PYRAMID_KERNEL, SLACK, blur_decimate_kernel, dense_flow, gradient, jacobi_sweeps, lucas_kanade,
+    search_tiles, subpixel_fit, upsample_tiles,
 )
-from spikeref.noise_level import immerkaer_response
+from spikeref.align_noise import (
+    ZERO_TEST_BOX, apply_zero_motion, as_image, checked_correlation, level_noise_factors,
+    noise_map, search_thresholds, tile_sums,
+)
 
 __all__ = [
     "PYRAMID_KERNEL",
@@ -158,16 +163,9 @@ __all__ = [
     "REFINES",
     "LK_ITERATIONS",
     "SMOOTHNESS_SWEEPS",
-    "ZERO_TEST_BOX",
-    "zero_motion_test",
     "AlignParams",
     "DEFAULT_PARAMS",
     "luma",
-    "MIN_CORRELATION",
-    "LOCAL_NOISE_BOX",
-    "estimate_noise",
-    "estimate_noise_correlation",
-    "local_noise",
     "gaussian_pyramid",
     "align",
     "align_tiles",
@@ -178,8 +176,6 @@ __all__ = [
 REFINES = ("quadratic", "lk")
 #: Gauss–Newton steps of ``refine="lk"`` per tile.
 LK_ITERATIONS = 2
-#: Side (pixels) of the box over which the per-pixel zero-motion test (:attr:`AlignParams.zero_test`) sums.
-ZERO_TEST_BOX = 9
 #: Jacobi sweeps of the regularisation of ``refine="lk"`` with ``smoothness > 0``.
 SMOOTHNESS_SWEEPS = 30
 
@@ -395,19 +391,6 @@ def _regularise(vectors: np.ndarray, info: np.ndarray, variance: np.ndarray, lam
 
 
 # ----------------------------------------------------------------------------- checks
-def _as_image(a, name: str) -> np.ndarray:
-    arr = np.asarray(a)
-    if not np.issubdtype(arr.dtype, np.floating):
-        raise TypeError(f"{name} must be a real floating-point array (float32 or float64); got dtype {arr.dtype}")
-    if arr.ndim != 2:
-        raise ValueError(f"{name} must be a single-channel (h, w) image on the plane grid; got shape {arr.shape}")
-    with np.errstate(over="ignore", invalid="ignore"):  # out-of-range values become inf and fail below
-        arr = np.ascontiguousarray(arr, dtype=np.float32)
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite (no NaN or inf, and within float32 range)")
-    return arr
-
-
 def _check_params(params) -> AlignParams:
     if not isinstance(params, AlignParams):
         raise TypeError(f"params must be an AlignParams; got {type(params).__name__}")
@@ -416,263 +399,6 @@ def _check_params(params) -> AlignParams:
 
 def _tile_count(size: int, tile: int) -> int:
     return (size - tile) // (tile // 2) + 1
-
-
-# ----------------------------------------------------------------------------- noise-aware search
-#: Variance of ``|X − Y| − |X − Z|`` per pixel for independent Gaussian ``X, Y, Z`` of variance ``v``,
-#: in units of ``v``: ``4 − (8/π)(√¾ + ½·arcsin ½)`` (the L1 distance difference of the finest level).
-L1_DIFF_VARIANCE = 4.0 - (8.0 / np.pi) * (np.sqrt(0.75) + 0.5 * np.arcsin(0.5))
-#: The same for the squared distance, ``(X − Y)² − (X − Z)²``, in units of ``v²`` (coarser levels).
-L2_DIFF_VARIANCE = 12.0
-#: The noise correlation of two frames is clipped below at −½, the lowest lag-1 correlation of a
-#: moving-average process (integrate-and-fire quantisation of adjacent windows reaches it).
-MIN_CORRELATION = -0.5
-#: Side (pixels) of the box over which :func:`local_noise` averages ``|Laplacian|``.
-LOCAL_NOISE_BOX = 15
-
-
-def _level_noise_factors(levels: int) -> list[tuple[float, float]]:
-    """Per level ``k``: ``(F_k, S_k)`` for white noise of unit variance at level 0.
-
-    ``F_k`` is the variance of a level-``k`` pixel (``(Σ h_k²)²`` for the composite 1-D kernel
-    ``h_k`` of ``k`` blur-and-decimate steps) and ``S_k = (Σ_m ρ_k(m)²)²`` the sum of squared
-    correlations between level-``k`` pixels: the factor by which spatial correlation inflates the
-    variance of a sum of squared differences over a tile (1 at level 0).
-    """
-    b = np.asarray(PYRAMID_KERNEL) / 16.0
-    h = np.ones(1)
-    out = []
-    for k in range(levels):
-        energy = float(np.sum(h * h))
-        step = 2 ** k
-        rho = [float(np.sum(h[: h.size - m * step] * h[m * step:])) / energy for m in range(-(-h.size // step))]
-        s1 = rho[0] ** 2 + 2.0 * sum(r * r for r in rho[1:])
-        out.append((energy ** 2, s1 ** 2))
-        up = np.zeros(4 * step + 1)
-        up[::step] = b
-        h = np.convolve(h, up)
-    return out
-
-
-def estimate_noise(image) -> float:
-    """Variance of white noise in ``image`` (Immerkær 1996, "Fast noise variance estimation").
-
-    The image is filtered with ``[[1, −2, 1], [−2, 4, −2], [1, −2, 1]]`` (zero on any plane,
-    ``Σ k² = 36``) over its interior, and ``σ = √(π/2) · mean|·| / 6``: exact for Gaussian white
-    noise on a locally planar image, an over-estimate where texture dominates.  (The mean
-    absolute value, not the median: spike counts are discrete and a median jumps between
-    quantised values.)
-
-    Parameters
-    ----------
-    image : ndarray ``(h, w)`` float, ``h, w ≥ 3``
-
-    Returns
-    -------
-    float
-        The per-pixel noise variance ``σ²`` (≥ 0).
-    """
-    img = _as_image(image, "image")
-    if min(img.shape) < 3:
-        raise ValueError(f"image must be at least 3×3 to estimate its noise; got {img.shape}")
-    return float((np.sqrt(0.5 * np.pi) * np.mean(immerkaer_response(img)) / 6.0) ** 2)
-
-
-def estimate_noise_correlation(reference, alternate, *, noise=None) -> float:
-    """Correlation of the noise of two images at the same pixel, ``1 − σ²(r − a) / (σ²(r) + σ²(a))``.
-
-    Each ``σ²`` is :func:`estimate_noise`.  Spike counts of adjacent windows are anti-correlated
-    (integrate-and-fire carries the residual charge of a window into the next: ``−½`` when the
-    quantisation dominates, the value measured on the SpikingSIM real recording), frames with
-    overlapping supports positively.  Texture that moves between the images lowers the estimate.
-
-    Parameters
-    ----------
-    reference, alternate : ndarray ``(h, w)`` float, same shape
-    noise : (float, float), optional
-        ``(σ²(r), σ²(a))`` when the caller has measured them already (the pipeline measures each
-        frame once and pairs it with several others); default :func:`estimate_noise` of each.
-
-    Returns
-    -------
-    float in ``[−1, 1]`` (0 when both images are noise-free)
-    """
-    ref = _as_image(reference, "reference")
-    alt = _as_image(alternate, "alternate")
-    if ref.shape != alt.shape:
-        raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
-    if noise is None:
-        var_ref, var_alt = estimate_noise(ref), estimate_noise(alt)
-    else:
-        try:
-            var_ref, var_alt = (float(v) for v in noise)
-        except (TypeError, ValueError):
-            raise TypeError(f"noise must be a pair of variances (σ²(r), σ²(a)); got {noise!r}") from None
-        if not (np.isfinite(var_ref) and np.isfinite(var_alt) and var_ref >= 0 and var_alt >= 0):
-            raise ValueError(f"noise must be two finite variances ≥ 0; got {noise!r}")
-    total = var_ref + var_alt
-    if total <= 0:
-        return 0.0
-    diff = estimate_noise(ref.astype(np.float64) - alt.astype(np.float64))
-    return float(np.clip(1.0 - diff / total, -1.0, 1.0))
-
-
-def local_noise(image, box: int = LOCAL_NOISE_BOX) -> np.ndarray:
-    """Per-pixel noise variance: :func:`estimate_noise` over a ``box × box`` neighbourhood.
-
-    ``(√(π/2) · m(p) / 6)²`` with ``m`` the mean of ``|Laplacian|`` (Immerkær's kernel) over the box
-    centred on ``p`` (the Laplacian's border ring replicates its edge, and so does the box beyond the
-    image's border: SciPy's ``uniform_filter(mode="nearest")``).  Spike noise depends on the rate, so a
-    map follows it where one number cannot.
-
-    Parameters
-    ----------
-    image : ndarray ``(h, w)`` float, ``h, w ≥ 3``
-    box : int
-        Odd side of the box, ≥ 1.
-
-    Returns
-    -------
-    ndarray ``(h, w)`` float64
-    """
-    from scipy.ndimage import uniform_filter
-
-    img = _as_image(image, "image")
-    if min(img.shape) < 3:
-        raise ValueError(f"image must be at least 3×3 to estimate its noise; got {img.shape}")
-    if not _is_int(box) or box < 1 or box % 2 == 0:
-        raise ValueError(f"box must be an odd integer ≥ 1; got {box!r}")
-    lap = np.pad(immerkaer_response(img), 1, mode="edge")
-    m = uniform_filter(lap, size=int(box), mode="nearest")
-    return (np.sqrt(0.5 * np.pi) * m / 6.0) ** 2
-
-
-def _noise_map(noise, shape, ref, alt) -> np.ndarray:
-    """The level-0 noise variance as an ``(h, w)`` float64 map (``None``: estimated from both images)."""
-    if noise is None:
-        return 0.5 * (local_noise(ref) + local_noise(alt))
-    if isinstance(noise, (bool, np.bool_)):
-        raise TypeError(f"noise must be a real number or array (a variance); got {noise!r}")
-    arr = np.asarray(noise)
-    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
-        raise TypeError(f"noise must be a real number or array (a variance); got dtype {arr.dtype}")
-    if arr.ndim not in (0, 2) or (arr.ndim == 2 and arr.shape != shape):
-        raise ValueError(f"noise must be a scalar or an array of the image's shape {shape} (the per-pixel noise "
-                         f"variance); got shape {arr.shape}")
-    arr = arr.astype(np.float64)
-    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
-        raise ValueError("noise must be finite and ≥ 0 (a variance)")
-    return np.broadcast_to(arr, shape).copy()
-
-
-def _check_correlation(correlation, ref, alt) -> float:
-    """The noise correlation of the pair, given or estimated, clipped to ``[MIN_CORRELATION, 1]``."""
-    if correlation is None:
-        rho = estimate_noise_correlation(ref, alt)
-    else:
-        if isinstance(correlation, (bool, np.bool_)) or not isinstance(correlation, (int, float, np.integer,
-                                                                                     np.floating)) \
-                or not np.isfinite(correlation) or not -1.0 <= correlation <= 1.0:
-            raise ValueError(f"correlation must be a number in [−1, 1] or None (estimated); got {correlation!r}")
-        rho = float(correlation)
-    return max(rho, MIN_CORRELATION)
-
-
-def _tile_sums(values: np.ndarray, tile: int, shape: tuple[int, int]) -> np.ndarray:
-    """``Σ`` of ``values`` over every tile of the grid ``shape`` (size ``tile``, stride ``tile/2``)."""
-    c = np.zeros((values.shape[0] + 1, values.shape[1] + 1))
-    integral_image(np.ascontiguousarray(values, np.float64), c)  # = cumsum(cumsum(values, 0), 1), bit for bit
-    s = tile // 2
-    y0 = np.arange(shape[0]) * s
-    x0 = np.arange(shape[1]) * s
-    return (c[y0[:, None] + tile, x0[None, :] + tile] - c[y0[:, None], x0[None, :] + tile]
-            - c[y0[:, None] + tile, x0[None, :]] + c[y0[:, None], x0[None, :]])
-
-
-def _thresholds(var_k: np.ndarray, factors: tuple[float, float], tile: int, shape, l2: bool, z: float,
-                rho: float) -> tuple[np.ndarray, np.ndarray]:
-    """Per tile of one level: ``(bias, thresh)`` of the noise-aware search.
-
-    ``bias = E[D(0)] − E[D(u)]``, ``u ≠ 0``, in a flat region: with noise of variance ``v`` per image
-    and correlation ``ρ`` between the images at the same pixel, the difference at the zero offset
-    has variance ``2v(1 − ρ)``, elsewhere ``2v`` (pixels apart are independent) — so
-    ``Σ −2ρ v`` (L2, levels > 0) or ``Σ √(2/π)(√(1 − ρ) − 1)·√(2v)`` (L1, finest level); only
-    ``ρ < 0`` is corrected.  ``thresh`` is ``z`` standard deviations of ``D(c) − D(u)`` for white
-    noise (:data:`L2_DIFF_VARIANCE`, :data:`L1_DIFF_VARIANCE`; ``S_k`` for the pyramid's
-    correlation).  On white noise this standard deviation is an upper bound: the terms of
-    neighbouring pixels share samples and partly cancel (measured 15–25 % lower).
-    """
-    f, s = factors
-    v = var_k * f
-    r = min(rho, 0.0)
-    if l2:
-        variance = L2_DIFF_VARIANCE * s * _tile_sums(v * v, tile, shape)
-        bias = -2.0 * r * _tile_sums(v, tile, shape)
-    else:
-        variance = L1_DIFF_VARIANCE * s * _tile_sums(v, tile, shape)
-        bias = np.sqrt(2.0 / np.pi) * (np.sqrt(1.0 - r) - 1.0) * _tile_sums(np.sqrt(2.0 * v), tile, shape)
-    return np.ascontiguousarray(bias), np.ascontiguousarray(z * np.sqrt(variance))
-
-
-def zero_motion_test(flow, reference, alternate, z: float, noise=None, correlation=None,
-                     box: int = ZERO_TEST_BOX) -> np.ndarray:
-    """The flow with zero motion where zero explains the frames better (``AlignParams.zero_test``; not in the paper).
-
-    Per pixel ``p``, ``d(p) = (r(p) − a(p))² − (r(p) − a(p + F(p)))²`` less its mean under noise alone, summed
-    over the ``box × box`` pixels around ``p`` (SciPy's ``uniform_filter``, ``mode="nearest"``); where that
-    sum is below ``−z`` standard deviations of what noise gives (:func:`zero_test_terms`), the zero offset
-    fits the data significantly better than the flow and ``F(p)`` becomes 0.  Where the two are not told
-    apart (flat regions) the flow is kept.
-
-    Parameters
-    ----------
-    flow : ndarray ``(2, h, w)`` float
-        The dense flow (:func:`align`'s convention).
-    reference, alternate : ndarray ``(h, w)`` float
-        The frames the test compares (the pipeline: the raw 2×2 luma, not smoothed: the noise model is
-        white noise per pixel).
-    z : float
-        Standard deviations (≥ 0).
-    noise : float or ndarray ``(h, w)``, optional
-        Noise variance per pixel of each frame; default :func:`local_noise`, averaged.
-    correlation : float, optional
-        Correlation of the two frames' noise at the same pixel (clipped below at :data:`MIN_CORRELATION`);
-        default :func:`estimate_noise_correlation`.
-    box : int
-        Odd side of the box, ≥ 1.
-
-    Returns
-    -------
-    ndarray ``(2, h, w)`` float32
-    """
-    ref = _as_image(reference, "reference")
-    alt = _as_image(alternate, "alternate")
-    if ref.shape != alt.shape:
-        raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
-    f = np.array(flow, dtype=np.float32)
-    if f.shape != (2,) + ref.shape or not np.all(np.isfinite(f)):
-        raise ValueError(f"flow must be a finite (2, {ref.shape[0]}, {ref.shape[1]}) array; got {f.shape}")
-    if isinstance(z, (bool, np.bool_)) or not np.isfinite(z) or z < 0:
-        raise ValueError(f"z must be a finite number ≥ 0; got {z!r}")
-    if not _is_int(box) or box < 1 or box % 2 == 0:
-        raise ValueError(f"box must be an odd integer ≥ 1; got {box!r}")
-    v = _noise_map(noise, ref.shape, ref, alt)
-    rho = _check_correlation(correlation, ref, alt)
-    return _zero_motion(np.ascontiguousarray(f, np.float32), ref, alt, float(z), v, rho, int(box))
-
-
-def _zero_motion(flow: np.ndarray, ref: np.ndarray, alt: np.ndarray, z: float, noise: np.ndarray, rho: float,
-                 box: int) -> np.ndarray:
-    """:func:`zero_motion_test` on checked input (float32 images and flow, a float64 noise map); ``flow`` is changed."""
-    from scipy.ndimage import uniform_filter
-
-    d = np.empty(ref.shape, np.float64)
-    var = np.empty(ref.shape, np.float64)
-    zero_test_terms(ref, alt, flow, noise, rho, d, var)
-    total = uniform_filter(d, box, mode="nearest")
-    spread = uniform_filter(var, box, mode="nearest")
-    flow[:, total < -z * np.sqrt(spread / (box * box))] = 0.0
-    return flow
 
 
 # ----------------------------------------------------------------------------- public
@@ -732,7 +458,7 @@ def gaussian_pyramid(image, levels: int) -> list[np.ndarray]:
         by ``[1, 4, 6, 4, 1] / 16`` along each axis (σ = 1, edge-replicate borders, float64
         arithmetic) then decimated to rows and columns ``0, 2, 4, …`` (size ``ceil(n / 2)``).
     """
-    img = _as_image(image, "image")
+    img = as_image(image, "image")
     if not _is_int(levels) or levels < 1:
         raise ValueError(f"levels must be an integer ≥ 1; got {levels!r}")
     pyramid = [img]
@@ -787,8 +513,8 @@ def _align_tiles(reference, alternate, step, params, noise, correlation):
     """:func:`align_tiles`, and the checked level-0 noise map (float64) when one was made, else None."""
     params = _check_params(params)
     step = _check_step(step)
-    ref = _as_image(reference, "reference")
-    alt = _as_image(alternate, "alternate")
+    ref = as_image(reference, "reference")
+    alt = as_image(alternate, "alternate")
     if ref.shape != alt.shape:
         raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
     h, w = ref.shape
@@ -803,17 +529,17 @@ def _align_tiles(reference, alternate, step, params, noise, correlation):
     noise_pyr = factors = noise0 = None
     rho = 0.0
     if params.prefer_centre > 0 or (params.subpixel and params.smoothness > 0):
-        noise0 = _noise_map(noise, ref.shape, ref, alt)
+        noise0 = noise_map(noise, ref.shape, ref, alt)
     elif noise is not None:  # validated even when unused
-        _noise_map(noise, ref.shape, ref, alt)
+        noise_map(noise, ref.shape, ref, alt)
     if params.prefer_centre > 0:
         noise_pyr = [noise0]
         for _ in range(params.levels - 1):  # the local mean variance under each level's pixels
             noise_pyr.append(_blur_decimate(noise_pyr[-1]).astype(np.float64))
-        factors = _level_noise_factors(params.levels)
-        rho = _check_correlation(correlation, ref, alt)
+        factors = level_noise_factors(params.levels)
+        rho = checked_correlation(correlation, ref, alt)
     elif correlation is not None:  # validated even when unused
-        _check_correlation(correlation, ref, alt)
+        checked_correlation(correlation, ref, alt)
     vectors = None  # integer vectors of the previous (coarser) level
     for k in range(params.levels - 1, -1, -1):
         t = tile if k == 0 else params.coarse_tile
@@ -822,12 +548,12 @@ def _align_tiles(reference, alternate, step, params, noise, correlation):
         if noise_pyr is None:
             bias, thresh = np.zeros(shape[:2]), np.full(shape[:2], -1.0)
         else:
-            bias, thresh = _thresholds(noise_pyr[k], factors[k], t, shape[:2], k > 0, params.prefer_centre, rho)
+            bias, thresh = search_thresholds(noise_pyr[k], factors[k], t, shape[:2], k > 0, params.prefer_centre, rho)
         centre = np.zeros(shape, np.int64)
         if vectors is not None:
             up_bias = bias  # zeros when off; else the L1 bias, as the candidates are compared by L1
             if noise_pyr is not None and k > 0:
-                up_bias = _thresholds(noise_pyr[k], factors[k], t, shape[:2], False, 0.0, rho)[0]
+                up_bias = search_thresholds(noise_pyr[k], factors[k], t, shape[:2], False, 0.0, rho)[0]
             upsample_tiles(r_img, a_img, t, vectors, params.coarse_tile, up_bias, centre)
         vectors = np.empty(shape, np.int64)
         search_tiles(r_img, a_img, t, centre, params.search_radius[k], k > 0, bias, thresh, vectors)
@@ -840,7 +566,7 @@ def _align_tiles(reference, alternate, step, params, noise, correlation):
         gradient(alt_pyr[0], gy, gx)
         lucas_kanade(ref_pyr[0], alt_pyr[0], gy, gx, tile, vectors, LK_ITERATIONS, refined, info)
         if params.smoothness > 0:
-            variance = _tile_sums(noise0, tile, vectors.shape[:2]) / (tile * tile)
+            variance = tile_sums(noise0, tile, vectors.shape[:2]) / (tile * tile)
             refined = _regularise(refined, info, variance, params.smoothness)
         out[...] = refined
     elif params.subpixel:
@@ -930,13 +656,13 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
     dense_flow(vectors, tile, out)
     if params.zero_test is not None:
         r_img, a_img = (reference, alternate) if raw is None else raw
-        r_img, a_img = _as_image(r_img, "raw reference"), _as_image(a_img, "raw alternate")
+        r_img, a_img = as_image(r_img, "raw reference"), as_image(a_img, "raw alternate")
         if r_img.shape != (h, w) or a_img.shape != (h, w):
             raise ValueError(f"raw must be two images of the reference's shape {(h, w)}; got {r_img.shape} and "
                              f"{a_img.shape}")
-        v = noise0 if noise is not None and noise0 is not None else _noise_map(noise, (h, w), r_img, a_img)
-        rho = _check_correlation(correlation, r_img, a_img)
-        out = _zero_motion(out, r_img, a_img, params.zero_test, v, rho, ZERO_TEST_BOX)
+        v = noise0 if noise is not None and noise0 is not None else noise_map(noise, (h, w), r_img, a_img)
+        rho = checked_correlation(correlation, r_img, a_img)
+        out = apply_zero_motion(out, r_img, a_img, params.zero_test, v, rho, ZERO_TEST_BOX)
     return out
 
 

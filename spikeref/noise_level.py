@@ -4,7 +4,7 @@ Immerkær (1996), "Fast noise variance estimation": the 3×3 kernel
 ``[[1, −2, 1], [−2, 4, −2], [1, −2, 1]]`` (the difference of two Laplacians) is zero on any
 locally planar image and turns white noise of standard deviation σ into noise of ``6σ``
 (``Σ k² = 36``), so the mean of its absolute response, ``√(2/π)·6σ``, measures σ.
-:func:`spikeref.align.estimate_noise` and :func:`spikeref.align.local_noise` average all of it;
+:func:`spikeref.align_noise.estimate_noise` and :func:`spikeref.align_noise.local_noise` average all of it;
 :func:`spikeref.denoise.guard.noise_sigma` averages its smallest share (edges inflate the rest).
 """
 

@@ -82,7 +82,8 @@ from typing import Callable, Iterator
 import numpy as np
 
 from spikeref.accumulate import window_counts
-from spikeref.align import AlignParams, align, estimate_noise, estimate_noise_correlation, local_noise, luma
+from spikeref.align import AlignParams, align, luma
+from spikeref.align_noise import estimate_noise, estimate_noise_correlation, local_noise
 from spikeref.bayer import bayer_mosaic, bayer_planes
 from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, window_charge
 from spikeref.compose import composed_warp, path_table
@@ -654,8 +655,8 @@ class _State:
     def noise_aware_flow(self, ref: np.ndarray, alt: np.ndarray, step: int, k: int, j: int) -> np.ndarray:
         """``align`` with the noise of ``I_l(k)`` and ``I_l(j)`` (``prefer_centre > 0`` or a ``zero_test``).
 
-        The noise variance (:func:`spikeref.align.local_noise`) and the correlation of the two
-        frames' noise (:func:`spikeref.align.estimate_noise_correlation`) are measured on the 2×2
+        The noise variance (:func:`spikeref.align_noise.local_noise`) and the correlation of the two
+        frames' noise (:func:`spikeref.align_noise.estimate_noise_correlation`) are measured on the 2×2
         luma of the frames *before* denoising, whatever the flow is estimated on: a denoised or
         smoothed flow image hides its residual error from a high-pass estimate, and the
         anti-correlation of adjacent windows' counts is a property of the raw spikes.  The per-pixel
@@ -668,7 +669,7 @@ class _State:
 
     def raw_noise(self, step: int, k: int) -> tuple[np.ndarray, np.ndarray, float]:
         """The 2×2 luma of ``I_l(k)`` before denoising, its local noise map and its global noise variance
-        (:func:`spikeref.align.estimate_noise`), made once per frame (each frame is aligned against up
+        (:func:`spikeref.align_noise.estimate_noise`), made once per frame (each frame is aligned against up
         to ``2h`` others, as reference and as alternate)."""
         self.planes(step, k)
         entry = self.rings[step][k]

@@ -9,10 +9,8 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from spikeref._align_kernels import fit_offset, gradient, lucas_kanade, nearest_tiles
-from spikeref.align import (
-    AlignParams, _regularise, align, align_tiles, estimate_noise, estimate_noise_correlation, flow_from_tiles,
-    gaussian_pyramid, local_noise, luma, zero_motion_test,
-)
+from spikeref.align import AlignParams, _regularise, align, align_tiles, flow_from_tiles, gaussian_pyramid, luma
+from spikeref.align_noise import estimate_noise, estimate_noise_correlation, local_noise, zero_motion_test
 from spikeref.oracles.align import (
     align_oracle, align_tiles_oracle, estimate_noise_correlation_oracle, estimate_noise_oracle, flow_from_tiles_oracle,
     gaussian_pyramid_oracle, gradient_oracle, level_noise_factors_oracle, local_noise_oracle, lucas_kanade_oracle,
@@ -477,9 +475,9 @@ def test_noise_estimators():
 
 
 def test_level_noise_factors_match_white_noise_through_the_pyramid():
-    from spikeref.align import _level_noise_factors
+    from spikeref.align_noise import level_noise_factors
 
-    factors = _level_noise_factors(4)
+    factors = level_noise_factors(4)
     assert factors[0] == (1.0, 1.0)
     assert factors[1][0] == pytest.approx((70 / 256) ** 2)  # Σ b² / 16² per axis, squared for 2-D
     pyr = gaussian_pyramid(np.random.default_rng(1).standard_normal((512, 512)).astype(np.float32), 4)
@@ -572,12 +570,12 @@ def test_noise_estimators_match_their_oracles():
                                                                    rel=1e-12)
     flat = np.full((9, 9), 0.5, np.float32)
     assert estimate_noise_correlation_oracle(flat, flat) == 0.0 == estimate_noise_correlation(flat, flat)
-    from spikeref.align import _level_noise_factors
+    from spikeref.align_noise import level_noise_factors
 
     # the values docs/spec/align.md prints
     spec = [(1.0, 1.0), (0.07476806640625, 1.7434777176176595), (0.015245858579874039, 2.101252113426672),
             (0.0036432665840493428, 2.1924949257570665)]
-    np.testing.assert_allclose(_level_noise_factors(4), spec, rtol=1e-14)
+    np.testing.assert_allclose(level_noise_factors(4), spec, rtol=1e-14)
     np.testing.assert_allclose(level_noise_factors_oracle(4), spec, rtol=1e-14)
 
 

@@ -37,6 +37,7 @@ LAYERS = {
     "spikeref.denoise": 3,
     "spikeref.align": 3,
     "spikeref._align_kernels": 3,
+    "spikeref.align_noise": 3,
     "spikeref.warp": 3,
     "spikeref.compose": 3,
     "spikeref.demosaic": 3,

@@ -355,7 +355,7 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
               "corrected for adjacent windows' anti-correlated count noise (`ρ` clipped at −½)"),
         function=('`spikeref.align.align_tiles` and `align(..., noise=, correlation=)` with '
                   "`AlignParams(prefer_centre=3)` (the pipeline's default, `AlignParams()` keeps 0); "
-                  '`estimate_noise`, `local_noise`, `estimate_noise_correlation`'),
+                  '`spikeref.align_noise.estimate_noise`, `local_noise`, `estimate_noise_correlation`'),
         oracle=('`oracles.align.align_tiles_oracle` with `prefer_centre > 0` (`noise_aware_search_oracle`: the zero '
                 'and centre rules written out; biases and thresholds as plain sums over each tile), '
                 '`local_noise_oracle`, `estimate_noise_oracle`, `estimate_noise_correlation_oracle`, '
@@ -384,7 +384,8 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
               'correlation `ρ` ≥ −½ in both; sample position clamped, box edge-replicated), on the raw frames '
               '(`align(..., raw=)`; the pipeline: the 2×2 luma before smoothing or denoising) '
               '([spec](spec/align.md#lucas-kanade-refinement))'),
-        function=('`spikeref.align.align_tiles`, `align` (`noise=`, `correlation=`, `raw=`), `zero_motion_test`; '
+        function=('`spikeref.align.align_tiles`, `align` (`noise=`, `correlation=`, `raw=`), '
+                  '`spikeref.align_noise.zero_motion_test`; '
                   '`AlignParams(refine="lk", smoothness=300, zero_test=2)` with `prefer_centre=3` = '
                   '`pipeline.default_align_params()` (`AlignParams()` keeps HDR+)'),
         oracle=('`oracles.align.align_tiles_oracle` with `refine="lk"`, `smoothness > 0` (`lucas_kanade_oracle`, '

@@ -355,7 +355,8 @@ def _align_noise_aware_oracle(i):
 
 
 def _align_noise_aware_fast(i):
-    from spikeref.align import align_tiles, estimate_noise_correlation, local_noise
+    from spikeref.align import align_tiles
+    from spikeref.align_noise import estimate_noise_correlation, local_noise
 
     return _align_noise_aware_outputs(i, align_tiles, lambda r, a: 0.5 * (local_noise(r) + local_noise(a)),
                                       estimate_noise_correlation)
