@@ -22,8 +22,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 REPO = Path(__file__).resolve().parent.parent
 
 CHILD = r"""
@@ -44,21 +42,6 @@ print(json.dumps({"fps": n / (time.perf_counter() - t0), "module": sr.__file__})
 """
 
 
-def _stream(h: int, w: int, planes: int, seed: int = 0) -> np.ndarray:
-    from scipy.ndimage import gaussian_filter
-
-    rng = np.random.default_rng(seed)
-    tex = gaussian_filter(rng.random((h + 64, w + 64)), 3.0)
-    tex = 0.05 + 0.9 * (tex - tex.min()) / np.ptp(tex)
-    out = np.empty((planes, h, w), np.uint8)
-    for t in range(0, planes, 10):
-        s = t // 10
-        img = tex[32:32 + h, 32 + s % 32:32 + s % 32 + w]
-        n = min(10, planes - t)
-        out[t:t + n] = rng.random((n, h, w)) < img
-    return out
-
-
 def _run(src: Path, dat: Path, h: int, w: int, frames: int) -> dict:
     env = dict(os.environ, PYTHONPATH=str(src))
     done = subprocess.run([sys.executable, "-c", CHILD, str(dat), str(h), str(w), str(frames)], env=env,
@@ -76,13 +59,16 @@ def main(argv=None) -> None:
     h, w = (int(v) for v in args.size.lower().split("x"))
     from spikeref.io.dat import write_dat
 
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    from test_speed_pipeline import moving_texture_spikes  # the stream of the pipeline's speed benchmark
+
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         old = tmp / "old"
         subprocess.run(["git", "-C", str(REPO), "worktree", "add", "--detach", "-q", str(old), args.rev], check=True)
         try:
             dat = tmp / "stream.dat"
-            write_dat(dat, _stream(h, w, 10 * (args.frames + 8)))
+            write_dat(dat, moving_texture_spikes(h, w, 10 * (args.frames + 8)))
             fps = {"before": [], "now": []}
             for r in range(args.rounds):
                 for name, src in (("before", old), ("now", REPO)):

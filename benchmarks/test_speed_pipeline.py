@@ -22,7 +22,8 @@ from spikeref.pipeline import ReconstructParams, Reconstructor
 from spikeref.stream import SpikeStream
 
 
-def _stream(h, w, planes, seed=0):
+def moving_texture_spikes(h, w, planes, seed=0) -> np.ndarray:
+    """Bernoulli spikes ``(planes, h, w) uint8`` of a smooth texture moving 1 px per 10-plane window."""
     rng = np.random.default_rng(seed)
     from scipy.ndimage import gaussian_filter
 
@@ -34,7 +35,11 @@ def _stream(h, w, planes, seed=0):
         img = tex[32:32 + h, 32 + s % 32:32 + s % 32 + w]
         n = min(10, planes - t)
         out[t:t + n] = rng.random((n, h, w)) < img
-    return SpikeStream.from_array(out, cfa="RGGB", check=False)
+    return out
+
+
+def _stream(h, w, planes, seed=0):
+    return SpikeStream.from_array(moving_texture_spikes(h, w, planes, seed), cfa="RGGB", check=False)
 
 
 def _run(stream, params, den, n_frames):
