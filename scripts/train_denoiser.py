@@ -85,12 +85,11 @@ def training_streams(data_dir: Path, real: bool = True, min_side: int = 0):
     return streams, described
 
 
-def config(recipe: str, channels: int, steps: int, checkpoint_every: int, accumulate: str = "count",
-           input_domain: str = "count"):
+def config(recipe: str, channels: int, steps: int, checkpoint_every: int, accumulate: str = "count"):
     from spikeref.denoise.train import TrainConfig
 
     return TrainConfig(width=channels, steps=steps, checkpoint_every=checkpoint_every, accumulate=accumulate,
-                       input_domain=input_domain, **RECIPES[recipe])
+                       **RECIPES[recipe])
 
 
 def probe(streams, steps: int, channels: int) -> dict:
@@ -130,9 +129,6 @@ def main() -> None:
     ap.add_argument("--accumulate", choices=["count", "charge"], default="count",
                     help="what a window gives the network: its spike count (Eq. 4) or the timing-aware charge "
                          "(spikeref.charge; weights for --accumulate charge)")
-    ap.add_argument("--input-domain", choices=["count", "rate", "sigma"], default="count",
-                    help="what the network sees: counts I·W (default), rates I, or rates over each image's noise σ "
-                         "(TrainConfig.input_domain)")
     ap.add_argument("--probe", type=int, default=0, metavar="N",
                     help="only measure the median seconds per step of both recipes over N interleaved steps")
     args = ap.parse_args()
@@ -146,13 +142,11 @@ def main() -> None:
               + f"; paper / cpu = {per_step['paper'] / per_step['cpu']:.1f}×")
         return
     cfg = config(args.recipe, args.channels, args.steps, checkpoint_every=max(1, min(500, args.steps // 20)),
-                 accumulate=args.accumulate, input_domain=args.input_domain)
+                 accumulate=args.accumulate)
     args.out.mkdir(parents=True, exist_ok=True)
     output = args.out / (f"b2u_w{args.channels}.npz" if args.recipe == "cpu" else f"b2u_paper_w{args.channels}.npz")
     if args.accumulate == "charge":
         output = output.with_name(output.stem + "_charge.npz")
-    if args.input_domain != "count":
-        output = output.with_name(f"{output.stem}_{args.input_domain}.npz")
     command = "python scripts/train_denoiser.py " + " ".join(sys.argv[1:])
     describe = {"command": command, "recipe": args.recipe, "data": described}
     last = args.steps if args.stop_after is None else min(args.steps, args.stop_after)

@@ -12,10 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["immerkaer_response", "noise_scale", "NOISE_SCALE_FLOOR"]
-
-#: The smallest :func:`noise_scale` (spikes per readout): a flat, dark image would otherwise give 0.
-NOISE_SCALE_FLOOR = 1e-3
+__all__ = ["immerkaer_response"]
 
 
 def immerkaer_response(image) -> np.ndarray:
@@ -29,18 +26,3 @@ def immerkaer_response(image) -> np.ndarray:
     corners = img[..., :-2, :-2] + img[..., :-2, 2:] + img[..., 2:, :-2] + img[..., 2:, 2:]
     # the three groups summed apart, then combined: exactly 0 on a flat image
     return np.abs(4.0 * centre - 2.0 * edges + corners)
-
-
-def noise_scale(images) -> np.ndarray:
-    """Immerkær's noise σ of each image, ``√(π/2) · mean|response| / 6``, at least :data:`NOISE_SCALE_FLOOR`.
-
-    ``images`` is ``(..., h, w)`` with ``h, w ≥ 3``; returns one σ per image, shape ``images.shape[:-2]``,
-    float64.  The all-pixel mean (texture raises it): what a noise-normalised denoiser
-    (``input_domain="sigma"``, :mod:`spikeref.denoise.train`) divides its input by, in training and at
-    inference alike.
-    """
-    img = np.asarray(images, dtype=np.float64)
-    if img.ndim < 2 or min(img.shape[-2:]) < 3:
-        raise ValueError(f"images must have shape (..., h, w) with h, w ≥ 3; got {img.shape}")
-    sigma = np.sqrt(0.5 * np.pi) * immerkaer_response(img).mean(axis=(-2, -1)) / 6.0
-    return np.maximum(sigma, NOISE_SCALE_FLOOR)

@@ -217,25 +217,6 @@ def test_rate_domain_network_uses_the_window_only_to_shrink(small):
     assert not np.array_equal(small(planes, window=10), small(planes, window=200))
 
 
-def test_sigma_domain_network_sees_each_plane_over_its_noise():
-    """A noise-normalised network denoises I/σ(I) per plane and multiplies back: D(cI) = c·D(I) for c > 0
-    (above the floor of the noise scale), whatever the window."""
-    from spikeref.noise_level import noise_scale
-
-    net = UNet.random(UNetSpec(width=4, depth=3), seed=5)
-    den = Denoiser(UNet(net.spec, net.params, {"input_domain": "sigma"}), guard="off", shrink=False)
-    assert den.input_domain == "sigma"
-    rng = np.random.default_rng(8)
-    planes = (rng.integers(0, 11, (4, 12, 20)) / 10).astype(np.float32)
-    sigma = noise_scale(planes).astype(np.float32)[:, None, None]
-    as_rates = Denoiser(UNet(net.spec, net.params), guard="off", shrink=False)  # the same network, told nothing
-    for mode in ("visible", "blind"):
-        np.testing.assert_allclose(den(planes, mode), as_rates(planes / sigma, mode) * sigma, rtol=1e-5, atol=1e-6)
-        np.testing.assert_allclose(den(planes * np.float32(0.25), mode), den(planes, mode) * np.float32(0.25),
-                                   rtol=1e-4, atol=1e-6)
-    np.testing.assert_array_equal(den(planes, window=10), den(planes, window=200))
-
-
 def test_unknown_input_domain_is_refused():
     net = UNet.random(UNetSpec(width=4, depth=3), seed=5)
     with pytest.raises(ValueError, match="unknown input_domain"):

@@ -137,22 +137,6 @@ def test_count_samples_are_whole_counts_with_their_windows():
         tr.TrainConfig(input_domain="photons")
 
 
-def test_sigma_samples_are_rates_over_their_own_noise():
-    # input_domain="sigma": each Bayer plane of a crop divided by its noise scale (the Denoiser's rule),
-    # so every sampled image has noise scale 1 unless the floor holds it (a flat, dark crop).
-    from spikeref.noise_level import NOISE_SCALE_FLOOR, noise_scale
-
-    stream = SpikeStream.from_array(_spikes())
-    rates = tr.CropSampler([stream], 16, 5, 9).sample(np.random.default_rng(1), 3)[:, 0].numpy()
-    scaled = tr.CropSampler([stream], 16, 5, 9, domain="sigma").sample(np.random.default_rng(1), 3)[:, 0].numpy()
-    # flips and turns come after the division and do not change a plane's noise scale
-    sigma = noise_scale(rates)
-    np.testing.assert_allclose(scaled, rates / sigma[:, None, None].astype(np.float32), rtol=1e-5)
-    expected = np.where(sigma > NOISE_SCALE_FLOOR, 1.0, noise_scale(scaled))
-    np.testing.assert_allclose(noise_scale(scaled), expected, rtol=1e-4)
-    assert tr.TrainConfig(input_domain="sigma").input_domain == "sigma"
-
-
 def test_streams_too_small_are_refused():
     small = SpikeStream.from_array(_spikes((10, 20, 20)))
     with pytest.raises(ValueError, match="smaller than the training crop"):

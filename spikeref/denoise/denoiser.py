@@ -25,7 +25,6 @@ from spikeref.denoise.blindspot import MODES, blindspot_denoise, check_cell
 from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, carried_excess_variance, sure_blend
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
-from spikeref.noise_level import noise_scale
 
 __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR", "BUNDLED_FOR", "bundled_weights"]
 
@@ -82,13 +81,11 @@ class Denoiser:
 
     Attributes
     ----------
-    input_domain : {"count", "rate", "sigma"}
+    input_domain : {"count", "rate"}
         What the network was trained on (the weights' metadata; ``"rate"`` when it says
         nothing).  A ``"count"`` network denoises ``I·W`` — the spike counts, whose noise level
         hardly depends on the exposure — and the result is divided by ``W`` again, so callers
-        always pass and get firing rates but must say the exposure ``window``.  A ``"sigma"``
-        network (not in the paper) denoises each plane divided by its own noise σ
-        (:func:`spikeref.noise_level.noise_scale`), and the result is multiplied back.  Interpretation:
+        always pass and get firing rates but must say the exposure ``window``.  Interpretation:
         Eq. 10–12 are written on ``I``; a network on ``I`` alone cannot tell a clean long window
         from a noisy short one (``spikeref.denoise.train.TrainConfig.input_domain``).
     """
@@ -115,8 +112,8 @@ class Denoiser:
             raise ValueError(f"guard_radius must be an integer ≥ 0 (plane pixels); got {guard_radius!r}")
         self.guard_radius = int(guard_radius)
         domain = unet.meta.get("input_domain", unet.meta.get("config", {}).get("input_domain", "rate"))
-        if domain not in ("count", "rate", "sigma"):
-            raise ValueError(f"the weights' metadata names an unknown input_domain {domain!r} (count, rate or sigma)")
+        if domain not in ("count", "rate"):
+            raise ValueError(f"the weights' metadata names an unknown input_domain {domain!r} (count or rate)")
         self.input_domain = domain
 
     @classmethod
@@ -199,11 +196,6 @@ class Denoiser:
         if self.input_domain == "rate":
             out = blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
                                     cell=self.cell, lam=self.lam)
-        elif self.input_domain == "sigma":  # each plane over its own noise σ, as in training
-            sigma = noise_scale(arr).astype(np.float32)[..., None, None]
-            out = blindspot_denoise(arr.astype(np.float32) / sigma, self.unet, mode or self.mode, cell=self.cell,
-                                    lam=self.lam)
-            out *= sigma
         elif window is None:
             raise ValueError("these weights denoise spike counts: pass window= (the exposure in planes, "
                              "W of Eq. 4)")

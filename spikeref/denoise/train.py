@@ -60,10 +60,9 @@ from spikeref.denoise.revisible import lambda_schedule, revisible_loss_torch
 from spikeref.denoise.torch_unet import TorchUNet, to_numpy_unet
 from spikeref.denoise.unet import UNetSpec
 from spikeref.io.atomic import atomic_write
-from spikeref.noise_level import noise_scale
 
 #: What the network can be trained on (:attr:`TrainConfig.input_domain`).
-INPUT_DOMAINS = ("count", "rate", "sigma")
+INPUT_DOMAINS = ("count", "rate")
 
 __all__ = ["TrainConfig", "INPUT_DOMAINS", "CropSampler", "masked_volume_torch", "blind_and_visible",
            "blind_subset_and_visible", "train_step", "train"]
@@ -95,11 +94,8 @@ class TrainConfig:
         ``λ`` schedule and ``η`` of Eq. 12 (2 → 20, 1).
     cell : int
         Blind-spot cell ``h_s = w_s`` (4 → 16 masks).
-    input_domain : {"count", "rate", "sigma"}
-        What the network sees: spike counts ``I·W`` (default), firing rates ``I`` (Eq. 4), or rates
-        divided by each image's own noise σ (:func:`spikeref.noise_level.noise_scale`; not in the
-        paper: the noise is about 1 whatever the window and whatever the accumulation, and the
-        :class:`~spikeref.denoise.denoiser.Denoiser` divides and multiplies back the same way).
+    input_domain : {"count", "rate"}
+        What the network sees: spike counts ``I·W`` (default) or firing rates ``I`` (Eq. 4).
         Interpretation (the paper is silent): with rates, the noise level falls as ``1/W`` and a
         network trained over W = 5…200 cannot tell a long clean window from a short noisy one —
         it over-smooths long windows (measured: −1.4 dB against the plain TFP at W = 200, see
@@ -178,9 +174,8 @@ class CropSampler:
         See :class:`TrainConfig`.
     device : torch.device
         Where the spike bits are unpacked and counted.
-    domain : {"count", "rate", "sigma"}
-        Images of spike counts ``I·W``, of firing rates ``I``, or of rates over their noise σ
-        (:attr:`TrainConfig.input_domain`).
+    domain : {"count", "rate"}
+        Images of spike counts ``I·W`` or of firing rates ``I`` (:attr:`TrainConfig.input_domain`).
     accumulate : {"count", "charge"}
         The window's spike count (Eq. 4) or its timing-aware charge (:attr:`TrainConfig.accumulate`).
     """
@@ -270,12 +265,9 @@ class CropSampler:
             y0 = 2 * int(rng.integers(0, (stream.height - s) // 2 + 1))
             x0 = 2 * int(rng.integers(0, (stream.width - s) // 2 + 1))
             image = self._counts(stream, t, w, y0, x0).to(torch.float32)
-            if self.domain != "count":
+            if self.domain == "rate":
                 image = image / w
             planes = image.reshape(self.patch, 2, self.patch, 2).permute(1, 3, 0, 2).reshape(4, self.patch, self.patch)
-            if self.domain == "sigma":  # each plane over its own noise σ, as the Denoiser divides at inference
-                sigma = noise_scale(planes.cpu().numpy())
-                planes = planes / torch.from_numpy(sigma.astype(np.float32)).to(planes.device)[:, None, None]
             for plane in planes:
                 k = int(rng.integers(4))
                 if rng.random() < 0.5:
