@@ -85,11 +85,13 @@ def training_streams(data_dir: Path, real: bool = True, min_side: int = 0):
     return streams, described
 
 
-def config(recipe: str, channels: int, steps: int, checkpoint_every: int, accumulate: str = "count"):
+def config(recipe: str, channels: int, steps: int, checkpoint_every: int, accumulate: str = "count",
+           lam_end: float | None = None):
     from spikeref.denoise.train import TrainConfig
 
+    more = {} if lam_end is None else {"lam_end": lam_end}
     return TrainConfig(width=channels, steps=steps, checkpoint_every=checkpoint_every, accumulate=accumulate,
-                       **RECIPES[recipe])
+                       **RECIPES[recipe], **more)
 
 
 def probe(streams, steps: int, channels: int) -> dict:
@@ -129,6 +131,8 @@ def main() -> None:
     ap.add_argument("--accumulate", choices=["count", "charge"], default="count",
                     help="what a window gives the network: its spike count (Eq. 4) or the timing-aware charge "
                          "(spikeref.charge; weights for --accumulate charge)")
+    ap.add_argument("--lam-end", type=float, default=None,
+                    help="λ of Eq. 12 at the end of the schedule (default TrainConfig's 20; λ rises from 2)")
     ap.add_argument("--probe", type=int, default=0, metavar="N",
                     help="only measure the median seconds per step of both recipes over N interleaved steps")
     args = ap.parse_args()
@@ -142,7 +146,7 @@ def main() -> None:
               + f"; paper / cpu = {per_step['paper'] / per_step['cpu']:.1f}×")
         return
     cfg = config(args.recipe, args.channels, args.steps, checkpoint_every=max(1, min(500, args.steps // 20)),
-                 accumulate=args.accumulate)
+                 accumulate=args.accumulate, lam_end=args.lam_end)
     args.out.mkdir(parents=True, exist_ok=True)
     output = args.out / (f"b2u_w{args.channels}.npz" if args.recipe == "cpu" else f"b2u_paper_w{args.channels}.npz")
     if args.accumulate == "charge":
