@@ -41,6 +41,7 @@ from spikeref.bayer import demosaic_bilinear
 from spikeref.stream import SpikeStream, as_stream
 
 __all__ = [
+    "baseline_frames",
     "tfp",
     "tfi",
     "tfstp",
@@ -254,3 +255,28 @@ def streamed_baseline(stream: SpikeStream, method: str, every: int, finish: Call
         frames = finish(frames)
         for i in range(times.size):
             yield first + i, frames[i]
+
+
+def baseline_frames(stream, method: str, window: int = 10, every: int | None = None,
+                    chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
+    """Yield ``(index, frame)`` of a baseline over a stream, colour (Ψ) when the stream has a CFA.
+
+    TFP: frame ``k`` is window ``[kW, (k+1)W)``; TFI and TFSTP: frame ``k`` is their reconstruction at
+    plane ``k · every`` (default ``every = window``), via :func:`streamed_baseline`.  Chunks of
+    ``chunk_frames`` frames bound the memory whatever the stream's length.
+    """
+    if method not in BASELINES:
+        raise ValueError(f"unknown baseline {method!r}; choose one of {', '.join(BASELINES)}")
+    every = window if every is None else every  # 0 is a value (refused downstream), not "not given"
+    finish = (lambda f: demosaic_bilinear(f, stream.cfa)) if stream.cfa else (lambda f: f)
+    if method == "tfp":
+        n_total = len(stream) // window
+        if n_total < 1:
+            raise ValueError(f"window={window} is longer than the stream ({len(stream)} planes)")
+        for first in range(0, n_total, chunk_frames):
+            n = min(chunk_frames, n_total - first)
+            frames = finish(tfp(stream, window, start=first * window, count=n))
+            for i in range(n):
+                yield first + i, frames[i]
+        return
+    yield from streamed_baseline(stream, method, every, finish, chunk_frames)

@@ -3,8 +3,9 @@
 :class:`FrameSink` writes linear frames as they come: EXR frames (HDR,
 unclipped) named by frame index, and a display video through one fixed
 exposure chosen from the first frames (so the video does not flicker).
-:func:`render_baseline` drives a baseline over a stream, chunk by chunk,
-with a progress bar; memory does not grow with the recording.
+:func:`render_baseline` writes a baseline's frames
+(:func:`spikeref.baselines.baseline_frames`, chunk by chunk) with a progress bar; memory does not grow
+with the recording.  :func:`frames_on_disk` and :func:`frame_runs` are the resume bookkeeping.
 """
 
 from __future__ import annotations
@@ -14,13 +15,12 @@ from typing import Iterator
 
 import numpy as np
 
-from spikeref import baselines
-from spikeref.bayer import demosaic_bilinear
+from spikeref.baselines import baseline_frames
 from spikeref.io.exr import read_exr, write_exr
 from spikeref.io.video import VideoWriter
 from spikeref.tonemap import Exposure, choose_exposure, tonemap
 
-__all__ = ["FrameSink", "baseline_frames", "render_baseline", "exr_name", "frame_runs", "frames_on_disk"]
+__all__ = ["FrameSink", "render_baseline", "exr_name", "frame_runs", "frames_on_disk"]
 
 
 def exr_name(index: int) -> str:
@@ -161,26 +161,6 @@ class FrameSink:
         else:
             self.abort()
         return False
-
-
-def baseline_frames(stream, method: str, window: int = 10, every: int | None = None,
-                    chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
-    """Yield ``(index, frame)`` of a baseline over a stream, colour (Ψ) when the stream has a CFA."""
-    if method not in baselines.BASELINES:
-        raise ValueError(f"unknown baseline {method!r}; choose one of {', '.join(baselines.BASELINES)}")
-    every = window if every is None else every  # 0 is a value (refused downstream), not "not given"
-    finish = (lambda f: demosaic_bilinear(f, stream.cfa)) if stream.cfa else (lambda f: f)
-    if method == "tfp":
-        n_total = len(stream) // window
-        if n_total < 1:
-            raise ValueError(f"window={window} is longer than the stream ({len(stream)} planes)")
-        for first in range(0, n_total, chunk_frames):
-            n = min(chunk_frames, n_total - first)
-            frames = finish(baselines.tfp(stream, window, start=first * window, count=n))
-            for i in range(n):
-                yield first + i, frames[i]
-        return
-    yield from baselines.streamed_baseline(stream, method, every, finish, chunk_frames)
 
 
 def render_baseline(stream, method: str, video, exr_dir=None, window: int = 10, every: int | None = None,
