@@ -35,27 +35,8 @@ def composed(self, k, top):
     out = orig_composed(self, k, top)
     if MODE == "default":
         return out
-    # rebuild the bank/hops as _composed does, then warp each window's paths separately
-    p, hh, L = self.p, self.p.half, self.p.L
-    bank, index, hops, targets = [], {}, [], []
-    first = k - L * hh
-    for path in pl.path_table(p.K, L):
-        kk, row = k, []
-        for m, i in zip(range(L - 1, -1, -1), path, strict=True):
-            if i:
-                key = (m, kk, i)
-                if key not in index:
-                    flows = top if m == L - 1 else self.rings[m + 1][kk][3]
-                    index[key] = len(bank)
-                    bank.append(flows[i + hh])
-                row.append(index[key])
-            else:
-                row.append(-1)
-            kk += i
-        hops.append(row)
-        targets.append(kk - first)
-    counts = np.stack([self.window_counts(j) for j in range(first, k + L * hh + 1)])
-    hops, targets, bank = np.asarray(hops), np.asarray(targets), np.stack(bank)
+    counts, bank, hops, targets = self.composed_inputs(k, top)  # the pipeline's own paths
+    p = self.p
     per, weights = [], []
     for j in np.unique(targets):
         sel = targets == j

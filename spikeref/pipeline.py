@@ -704,12 +704,15 @@ class _State:
             self.step0[k] = self.flows(0, k)
         return self.step0[k]
 
-    def _composed(self, k: int, top: np.ndarray | None) -> np.ndarray:
-        """``I_L(k)`` with the step flows composed along every path (:mod:`spikeref.compose`).
+    def composed_inputs(self, k: int, top: np.ndarray | None) -> tuple:
+        """What :func:`spikeref.compose.composed_warp` needs for ``I_L(k)``: ``(counts, bank, hops, targets)``.
 
-        ``top`` are the flows ``F_{L−1}(k, ·)``; the lower steps' flows ``F_m(j, ·)`` are those
-        that made ``I_{m+1}(j)``, kept in the rings.  With ``warp="chained"`` every hop uses the
-        step-0 flow of the window it starts from (:meth:`step0_flows`) and ``top`` is not used.
+        ``counts`` are the support's windows ``k − L·h … k + L·h``; ``bank`` the step flows the
+        paths use, each once; ``hops`` and ``targets`` the paths of :func:`path_table` as indices into
+        ``bank`` and ``counts``.  ``top`` are the flows ``F_{L−1}(k, ·)``; the lower steps' flows
+        ``F_m(j, ·)`` are those that made ``I_{m+1}(j)``, kept in the rings.  With
+        ``warp="chained"`` every hop uses the step-0 flow of the window it starts from
+        (:meth:`step0_flows`) and ``top`` is not used.
         """
         p, hh, L = self.p, self.p.half, self.p.L
         chained = p.warp == "chained"
@@ -734,8 +737,13 @@ class _State:
             hops.append(row)
             targets.append(kk - first)
         counts = np.stack([self.window_counts(j) for j in range(first, k + L * hh + 1)])
+        return counts, np.stack(bank), np.asarray(hops), np.asarray(targets)
+
+    def _composed(self, k: int, top: np.ndarray | None) -> np.ndarray:
+        """``I_L(k)`` with the step flows composed along every path (:mod:`spikeref.compose`)."""
+        counts, bank, hops, targets = self.composed_inputs(k, top)
         with self.timed("warp"):
-            return composed_warp(counts, np.stack(bank), np.asarray(hops), np.asarray(targets), p.window)
+            return composed_warp(counts, bank, hops, targets, self.p.window)
 
     # output ------------------------------------------------------------
     def finish(self, planes: np.ndarray) -> np.ndarray:
