@@ -217,7 +217,6 @@ class ReconstructParams:
             raise TypeError(f"align_params must be an AlignParams; got {type(self.align_params).__name__}")
         if self.warp not in WARPS:
             raise ValueError(f"warp must be one of {', '.join(WARPS)}; got {self.warp!r}")
-
         if self.demosaic not in DEMOSAICS:
             raise ValueError(f"demosaic must be one of {', '.join(DEMOSAICS)}; got {self.demosaic!r}")
         if self.accumulate not in ACCUMULATE:
@@ -641,7 +640,6 @@ class _State:
         if not p.align or hh == 0:  # K = 1: no neighbour to align, so no denoising for flow either
             return out
         ref = self.luma(step, k)
-        tile_step = step
         for j, i in enumerate(range(-hh, hh + 1)):
             if i:
                 alt = self.luma(step, k + i)
@@ -649,7 +647,7 @@ class _State:
                     if p.align_params.prefer_centre > 0 or p.align_params.zero_test is not None:
                         out[j] = self.noise_aware_flow(ref, alt, step, k, k + i)
                     else:
-                        out[j] = align(ref, alt, step=tile_step, params=p.align_params)
+                        out[j] = align(ref, alt, step=step, params=p.align_params)
         return out
 
     def noise_aware_flow(self, ref: np.ndarray, alt: np.ndarray, step: int, k: int, j: int) -> np.ndarray:
@@ -751,7 +749,6 @@ class _State:
             mosaic = bayer_mosaic(planes, self.stream.cfa or "RGGB")
             if not self.stream.cfa:
                 return mosaic
-
             return demosaic(mosaic, self.stream.cfa, self.p.demosaic)
 
     def output(self, k: int, keep_steps: bool) -> ReconstructedFrame:

@@ -111,9 +111,11 @@ def layer_shapes(spec: UNetSpec) -> dict[str, tuple[int, int]]:
 # ----------------------------------------------------------------------------- convolution
 
 
-def _conv_padded(xp: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
+def _conv_padded(xp: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None,
+                 out: np.ndarray | None = None) -> np.ndarray:
+    """The direct kernel on a zero-bordered ``xp``, into ``out`` (a new zero-bordered buffer by default)."""
     n, _, hp, wp = xp.shape
-    out = padded_empty(n, weight.shape[0], hp - 2, wp - 2)
+    out = padded_empty(n, weight.shape[0], hp - 2, wp - 2) if out is None else out
     conv3x3_direct(xp, weight, bias, np.float32(0.0 if slope is None else slope), slope is not None, out)
     return out
 
@@ -312,8 +314,8 @@ class UNet:
         def conv(name, t, act=True):
             """The layer on ``t``, whose buffer no later layer reads: it is released."""
             weight, bias = params[f"{name}.weight"], params[f"{name}.bias"]
-            out = pool.take(t.shape[0], weight.shape[0], t.shape[2] - 2, t.shape[3] - 2)
-            conv3x3_direct(t, weight, bias, np.float32(slope if act else 0.0), act, out)
+            out = _conv_padded(t, weight, bias, slope if act else None,
+                               pool.take(t.shape[0], weight.shape[0], t.shape[2] - 2, t.shape[3] - 2))
             pool.give(t)
             return out
 
