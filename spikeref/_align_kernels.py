@@ -478,3 +478,20 @@ def blur_decimate_kernel(img, out):
             c3 = min(x + 1, w - 1)
             c4 = min(x + 2, w - 1)
             out[i, j] = (k0 * v[i, c0] + k1 * v[i, c1] + k2 * v[i, x] + k3 * v[i, c3] + k4 * v[i, c4]) / 16.0
+
+
+def regularise(vectors: np.ndarray, info: np.ndarray, variance: np.ndarray, lam: float, sweeps: int) -> np.ndarray:
+    """Tile vectors pulled towards their 4-neighbours by their confidence (``refine="lk"``, ``smoothness``).
+
+    ``sweeps`` Jacobi sweeps (:data:`spikeref.align_params.SMOOTHNESS_SWEEPS`) from ``û`` towards the minimiser of
+    ``Σ_i (u_i − û_i)ᵀ J_i (u_i − û_i) + λ Σ_{i~j} |u_i − u_j|²`` (not run to convergence: the sweeps
+    are the definition), ``J_i`` the tile's Lucas–Kanade information over its mean noise variance
+    (each tile: ``u_i = (J_i + λ n_i I)⁻¹ (J_i û_i + λ Σ_j u_j)``, ``n_i`` its neighbours).
+    """
+    ny, nx = vectors.shape[:2]
+    if ny * nx == 1 or lam <= 0:
+        return vectors
+    out = np.empty_like(vectors)
+    jacobi_sweeps(np.ascontiguousarray(vectors, np.float64), np.ascontiguousarray(info, np.float64),
+                  np.ascontiguousarray(np.maximum(variance, 1e-20), np.float64), float(lam), int(sweeps), out)
+    return out

@@ -9,7 +9,9 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from spikeref._align_kernels import fit_offset, gradient, lucas_kanade, nearest_tiles
-from spikeref.align import AlignParams, _regularise, align, align_tiles, flow_from_tiles, gaussian_pyramid, luma
+from spikeref._align_kernels import regularise
+from spikeref.align import AlignParams, align, align_tiles, flow_from_tiles, gaussian_pyramid, luma
+from spikeref.align_params import SMOOTHNESS_SWEEPS
 from spikeref.align_noise import estimate_noise, estimate_noise_correlation, local_noise, zero_motion_test
 from spikeref.oracles.align import (
     align_oracle, align_tiles_oracle, estimate_noise_correlation_oracle, estimate_noise_oracle, flow_from_tiles_oracle,
@@ -667,15 +669,15 @@ def test_regularisation_pulls_unsure_tiles_to_their_neighbours():
     info[..., 0] = info[..., 2] = 1e3
     info[2, 3] = 0.0  # nothing to go by: an outlier from noise
     var = np.ones((5, 6))
-    out = _regularise(vec, info, var, 10.0)
+    out = regularise(vec, info, var, 10.0, SMOOTHNESS_SWEEPS)
     np.testing.assert_allclose(out[2, 3], (0.5, -0.25), atol=0.02)
     others = np.delete(out.reshape(-1, 2), 2 * 6 + 3, axis=0)
     np.testing.assert_allclose(others, np.broadcast_to([0.5, -0.25], others.shape), atol=0.02)
     sure = info.copy()
     sure[2, 3] = (1e9, 0.0, 1e9)
-    np.testing.assert_allclose(_regularise(vec, sure, var, 10.0)[2, 3], (3.0, 3.0), atol=1e-3)
-    assert _regularise(vec, info, var, 0.0) is vec
-    np.testing.assert_allclose(_regularise(np.tile(vec[:1, :1], (5, 6, 1)), info, var, 10.0),
+    np.testing.assert_allclose(regularise(vec, sure, var, 10.0, SMOOTHNESS_SWEEPS)[2, 3], (3.0, 3.0), atol=1e-3)
+    assert regularise(vec, info, var, 0.0, SMOOTHNESS_SWEEPS) is vec
+    np.testing.assert_allclose(regularise(np.tile(vec[:1, :1], (5, 6, 1)), info, var, 10.0, SMOOTHNESS_SWEEPS),
                                np.tile(vec[:1, :1], (5, 6, 1)))  # a uniform field stays as it is
 
 
@@ -864,7 +866,8 @@ def test_lk_kernels_match_the_oracle_in_float64():
     variance = np.random.default_rng(2).uniform(1e-4, 1e-3, (7, 9))
     variance[0, 0] = 0.0  # floored at 1e-20
     for lam in (1.0, 300.0, 1e5):
-        np.testing.assert_allclose(_regularise(out, info, variance, lam), regularise_oracle(out, info, variance, lam),
+        np.testing.assert_allclose(regularise(out, info, variance, lam, SMOOTHNESS_SWEEPS),
+                                   regularise_oracle(out, info, variance, lam),
                                    rtol=0, atol=1e-10)
 
 

@@ -38,6 +38,8 @@ LAYERS = {
     "spikeref.align": 3,
     "spikeref._align_kernels": 3,
     "spikeref.align_noise": 3,
+    "spikeref.align_params": 3,
+    "spikeref.pyramid": 3,
     "spikeref.warp": 3,
     "spikeref.compose": 3,
     "spikeref.demosaic": 3,
