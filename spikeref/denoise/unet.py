@@ -32,15 +32,12 @@ never calls them.  The kernels, and the per-thread pool of activation buffers a 
 reuses from the pass before (:func:`release_buffers` frees it), are in
 :mod:`spikeref.denoise._unet_kernels`.
 
-Weights file (``.npz``): ``format = "spikeref-unet-1"``, ``width``, ``depth``,
-``negative_slope``, for each layer ``<name>.weight`` ``(out, in, 3, 3) float32`` and
-``<name>.bias`` ``(out,) float32`` (PyTorch's layout), and ``meta`` (a JSON string: how the
-weights were made).
+The weights file (``.npz``, PyTorch's layout, with a JSON ``meta`` saying how the weights were made)
+is read and written by :mod:`spikeref.io.unet_weights`.
 """
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,11 +46,9 @@ import numpy as np
 from spikeref.denoise._unet_kernels import (
     buffers, conv3x3_direct, maxpool_into, padded_empty, release_buffers, upsample_concat_into,
 )
-from spikeref.io.atomic import atomic_write
+from spikeref.io.unet_weights import WEIGHTS_FORMAT, read_unet_weights, write_unet_weights
 
 __all__ = ["UNetSpec", "UNet", "layer_shapes", "conv3x3", "release_buffers", "WEIGHTS_FORMAT"]
-
-WEIGHTS_FORMAT = "spikeref-unet-1"
 
 
 @dataclass(frozen=True)
@@ -219,44 +214,17 @@ class UNet:
 
     @classmethod
     def load(cls, path) -> "UNet":
-        """Read a weights ``.npz`` (the format in the module docstring)."""
-        path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"no weights file {path}")
+        """Read a weights ``.npz`` (:mod:`spikeref.io.unet_weights`)."""
+        shape, arrays, meta = read_unet_weights(path)
         try:
-            with np.load(path, allow_pickle=False) as z:
-                data = {k: z[k] for k in z.files}
-        except (OSError, ValueError) as exc:
-            raise ValueError(f"{path}: not a weights .npz ({exc})") from None
-        fmt = str(data.pop("format", ""))
-        if fmt != WEIGHTS_FORMAT:
-            raise ValueError(f"{path}: format {fmt!r} is not {WEIGHTS_FORMAT!r}")
-        try:
-            spec = UNetSpec(
-                width=int(data.pop("width")), depth=int(data.pop("depth")),
-                negative_slope=float(data.pop("negative_slope")),
-            )
-        except KeyError as exc:
-            raise ValueError(f"{path}: lacks {exc.args[0]!r}") from None
-        meta = json.loads(str(data.pop("meta", "{}")))
-        try:
-            return cls(spec, data, meta)
+            return cls(UNetSpec(**shape), arrays, meta)
         except ValueError as exc:
             raise ValueError(f"{path}: {exc}") from None
 
     def save(self, path) -> Path:
-        """Write the weights ``.npz`` (atomically)."""
-        path = Path(path)
-        arrays = {
-            "format": np.array(WEIGHTS_FORMAT), "width": np.array(self.spec.width),
-            "depth": np.array(self.spec.depth), "negative_slope": np.array(self.spec.negative_slope),
-            "meta": np.array(json.dumps(self.meta, sort_keys=True)), **self.params,
-        }
-        def write(tmp):
-            with open(tmp, "wb") as f:
-                np.savez(f, **arrays)
-
-        return atomic_write(path, write)
+        """Write the weights ``.npz`` (atomically; :mod:`spikeref.io.unet_weights`)."""
+        shape = {"width": self.spec.width, "depth": self.spec.depth, "negative_slope": self.spec.negative_slope}
+        return write_unet_weights(path, shape, self.params, self.meta)
 
     @property
     def n_parameters(self) -> int:
