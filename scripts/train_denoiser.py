@@ -51,10 +51,13 @@ RECIPES = {
 }
 
 
-def simulate_missing(data_dir: Path) -> list[Path]:
+def simulate_missing(data_dir: Path, static: bool = False) -> list[Path]:
+    """The training scenes' streams (the static twins ``train_static_*.toml`` with ``static``), simulated if missing."""
     data_dir.mkdir(parents=True, exist_ok=True)
     out = []
-    for scene in sorted(SCENES.glob("train_*.toml")):
+    scenes = sorted(SCENES.glob("train_static_*.toml")) if static else \
+        [s for s in sorted(SCENES.glob("train_*.toml")) if not s.stem.startswith("train_static_")]
+    for scene in scenes:
         dat = data_dir / (scene.stem + ".dat")
         if not dat.is_file():
             print(f"simulating {scene.name}", flush=True)
@@ -64,13 +67,17 @@ def simulate_missing(data_dir: Path) -> list[Path]:
     return out
 
 
-def training_streams(data_dir: Path, real: bool = True, min_side: int = 0):
-    """The streams trained on (those at least ``min_side`` pixels high and wide), and their description."""
+def training_streams(data_dir: Path, real: bool = True, min_side: int = 0, static: bool = False):
+    """The streams trained on (those at least ``min_side`` pixels high and wide), and their description.
+
+    With ``static`` (the pairs objective), the static twins of the simulated scenes and no real
+    recording: the real ones move, and a pair's target needs a scene that does not.
+    """
     from spikeref.stream import open_spike_file
     from spikeref.stream import SpikeStream
 
-    streams = [open_spike_file(p) for p in simulate_missing(data_dir)]
-    if real and REAL.is_dir():
+    streams = [open_spike_file(p) for p in simulate_missing(data_dir, static=static)]
+    if real and not static and REAL.is_dir():
         uhsr = REAL / "spikezoo_uhsr.npz"
         if uhsr.is_file():
             streams.append(SpikeStream.from_array(np.load(uhsr)["spk"], cfa=None, path=uhsr))
@@ -86,10 +93,12 @@ def training_streams(data_dir: Path, real: bool = True, min_side: int = 0):
 
 
 def config(recipe: str, channels: int, steps: int, checkpoint_every: int, accumulate: str = "count",
-           lam_end: float | None = None):
+           lam_end: float | None = None, objective: str = "b2u"):
     from spikeref.denoise.train import TrainConfig
 
     more = {} if lam_end is None else {"lam_end": lam_end}
+    if objective != "b2u":
+        more["objective"] = objective
     return TrainConfig(width=channels, steps=steps, checkpoint_every=checkpoint_every, accumulate=accumulate,
                        **RECIPES[recipe], **more)
 
@@ -133,22 +142,29 @@ def main() -> None:
                          "(spikeref.charge; weights for --accumulate charge)")
     ap.add_argument("--lam-end", type=float, default=None,
                     help="λ of Eq. 12 at the end of the schedule (default TrainConfig's 20; λ rises from 2)")
+    ap.add_argument("--objective", choices=["b2u", "pairs"], default="b2u",
+                    help="b2u: the paper's Blind2Unblind loss (Eq. 10-12) on the moving scenes and real recordings; "
+                         "pairs: Noise2Noise on the static twins of the simulated scenes (train_static_*.toml), "
+                         "one window against the count of the planes it did not read (not in the paper)")
     ap.add_argument("--probe", type=int, default=0, metavar="N",
                     help="only measure the median seconds per step of both recipes over N interleaved steps")
     args = ap.parse_args()
     from spikeref.denoise.train import train
 
     side = 2 * max(r["patch"] for r in RECIPES.values()) if args.probe else 2 * RECIPES[args.recipe]["patch"]
-    streams, described = training_streams(args.data_dir, real=not args.no_real, min_side=side)
+    streams, described = training_streams(args.data_dir, real=not args.no_real, min_side=side,
+                                          static=args.objective == "pairs")
     if args.probe:
         per_step = probe(streams, args.probe, args.channels)
         print(" ".join(f"{k}: {v:.3f} s/step" for k, v in per_step.items())
               + f"; paper / cpu = {per_step['paper'] / per_step['cpu']:.1f}×")
         return
     cfg = config(args.recipe, args.channels, args.steps, checkpoint_every=max(1, min(500, args.steps // 20)),
-                 accumulate=args.accumulate, lam_end=args.lam_end)
+                 accumulate=args.accumulate, lam_end=args.lam_end, objective=args.objective)
     args.out.mkdir(parents=True, exist_ok=True)
     output = args.out / (f"b2u_w{args.channels}.npz" if args.recipe == "cpu" else f"b2u_paper_w{args.channels}.npz")
+    if args.objective == "pairs":
+        output = output.with_name(output.name.replace("b2u_", "pairs_"))
     if args.accumulate == "charge":
         output = output.with_name(output.stem + "_charge.npz")
     command = "python scripts/train_denoiser.py " + " ".join(sys.argv[1:])

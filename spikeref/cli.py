@@ -720,7 +720,8 @@ def cmd_train(args) -> int:
     cfg = TrainConfig(width=args.channels, steps=args.steps, batch=args.batch, patch=args.patch, lr=args.lr,
                       window_min=args.window_min, window_max=args.window_max,
                       input_domain=args.input_domain, checkpoint_every=args.checkpoint_every,
-                      masks_per_step=args.masks_per_step, seed=args.seed)
+                      masks_per_step=args.masks_per_step, seed=args.seed, accumulate=args.accumulate,
+                      objective=args.objective)
     describe = {"command": "spikeref train " + " ".join(sys.argv[2:]) if len(sys.argv) > 2 else "spikeref train",
                 "data": [{"file": Path(s.path).name, "planes": len(s), "height": s.height, "width": s.width}
                          for s in streams]}
@@ -1105,6 +1106,13 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how many of the 16 blind-spot masks (Eq. 10) each image runs per step, drawn at random; "
                         "the loss is taken on their hidden pixels. 16 is the paper's full volume; 1 is an order of "
                         "magnitude cheaper per step (the CPU recipe: scripts/train_denoiser.py)")
+    p.add_argument("--accumulate", choices=["count", "charge"], default="count",
+                   help="what a window gives the network: its spike count (Eq. 4) or the timing-aware charge "
+                        "(weights for --accumulate charge of denoise and reconstruct)")
+    p.add_argument("--objective", choices=["b2u", "pairs"], default="b2u",
+                   help="b2u: the paper's Blind2Unblind self-supervision (Eq. 10-12); pairs (not in the paper): "
+                        "Noise2Noise on recordings of scenes that do not move, one window against the spike count "
+                        "of every plane it did not read (each file at least --window-max + 500 planes long)")
     p.add_argument("--resume", action="store_true", help="continue from the checkpoint if it exists")
     p.add_argument("--stop-after", type=int, default=None,
                    help="stop after this many of the --steps schedule's steps and write the weights "

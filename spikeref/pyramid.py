@@ -25,9 +25,10 @@ def blur_decimate(image: np.ndarray) -> np.ndarray:
     """One pyramid step: 5-tap binomial blur (vertical, then horizontal; edge replicate), keep even rows/cols.
 
     ``image`` is a finite ``(h, w)`` float32 or float64 array, not checked here (:func:`gaussian_pyramid`
-    checks its input); returns ``(ceil(h/2), ceil(w/2))`` float32.  Only the kept rows and columns are computed, with the arithmetic of the whole-image NumPy
-    expression (``(k0·p0 + k1·p1 + k2·p2 + k3·p3 + k4·p4) / 16`` in float64, left to right), so the
-    result is the same to the bit.
+    checks its input); returns ``(ceil(h/2), ceil(w/2))`` float32.  Only the kept rows and columns are
+    computed, with the arithmetic of the whole-image NumPy expression
+    (``(k0·p0 + k1·p1 + k2·p2 + k3·p3 + k4·p4) / 16`` in float64, left to right), so the result is the
+    same to the bit.
     """
     img = np.ascontiguousarray(image)
     h, w = img.shape

@@ -171,6 +171,23 @@ def test_cli_train_writes_weights(tmp_path):
     assert (tmp_path / "w.npz.ckpt").is_file()
 
 
+def test_cli_train_pairs_on_window_charges(tmp_path, capsys):
+    """--objective pairs --accumulate charge reach the configuration; a file too short for pairs is a clear error."""
+    pytest.importorskip("torch")
+    period = np.random.default_rng(4).integers(2, 9, (64, 64))
+    spikes = (np.arange(560)[:, None, None] % period == 0).astype(np.uint8)  # a scene that does not move
+    np.savez(tmp_path / "s.npz", spikes=spikes)
+    out = tmp_path / "w.npz"
+    assert main(["train", str(tmp_path / "s.npz"), "-o", str(out), "--channels", "4", "--steps", "2", "--batch", "1",
+                 "--patch", "32", "--window-max", "20", "--device", "cpu", "--objective", "pairs",
+                 "--accumulate", "charge"]) == 0
+    net = UNet.load(out)
+    assert net.meta["config"]["objective"] == "pairs" and net.meta["accumulate"] == "charge"
+    assert main(["train", str(tmp_path / "s.npz"), "-o", str(tmp_path / "x.npz"), "--steps", "2", "--patch", "32",
+                 "--device", "cpu", "--objective", "pairs"]) != 0  # window-max 200: 560 planes are too few
+    assert "too short for pairs" in capsys.readouterr().err
+
+
 def _count_network(shrink=False):
     net = UNet.random(UNetSpec(width=4, depth=3), seed=5)
     return Denoiser(UNet(net.spec, net.params, {"input_domain": "count"}), shrink=shrink, guard="off")

@@ -582,3 +582,33 @@ def test_image_scene_from_scikit_image():
     data["content"]["path"] = "skimage:no_such_photo"
     with pytest.raises(ValueError, match="scikit-image bundles no photograph 'no_such_photo'; it has .*astronaut"):
         scene_from_dict(data)
+
+
+def test_denoiser_training_scenes_keep_their_photographs_out_of_every_scored_set():
+    """The photographs of scripts/denoiser_scenes/train_*.toml are in no benchmark or held-out scene, and
+    the static twins (train_static_*.toml, for the pairs objective) do not move."""
+    import tomllib
+
+    root = Path(__file__).resolve().parents[1]
+
+    def photographs(paths):
+        found = set()
+        for path in paths:
+            text = tomllib.loads(path.read_text())
+            for table in (text.get("content", {}), text.get("content", {}).get("foreground", {})):
+                if isinstance(table, dict) and str(table.get("path", "")).startswith("skimage:"):
+                    found.add(table["path"])
+        return found
+
+    train = sorted((root / "scripts" / "denoiser_scenes").glob("train_*.toml"))
+    scored = [*(root / "spikeref" / "bench" / "scenes").glob("*.toml"), *(root / "scripts" / "heldout_scenes").glob(
+        "*.toml"), *(root / "scripts" / "denoiser_scenes").glob("heldout_*.toml")]
+    assert len(photographs(train)) == 7 and photographs(scored)
+    assert not photographs(train) & photographs(scored)
+    twins = sorted((root / "scripts" / "denoiser_scenes").glob("train_static_*.toml"))
+    assert len(twins) == len(train) - len(twins) == 12
+    pytest.importorskip("skimage")
+    for path in twins:
+        scene = load_scene(path)
+        assert scene.content.static, path.name
+        assert scene.planes >= 200 + 2 * 200 + 100, path.name  # window_max + 2 margins + the target's 100

@@ -36,6 +36,13 @@ Cost: a step runs the network with gradient on ``k·4·batch`` images and withou
 ``k = 16`` for the same crops (``docs/results.md``, "Training on two cores": the CPU recipe of
 ``scripts/train_denoiser.py``, which also halves the crop side, 27× less per step).
 
+With ``objective="pairs"`` (not in the paper; :attr:`TrainConfig.objective`) steps 3–4 are replaced by
+Noise2Noise on streams of scenes that do not move: the network on the visible window, its squared
+error against the spike count of every plane of the same stream the window's input did not read
+(scaled to the window's exposure), divided by ``W``.  No blind spot, no ground truth: the target is
+spikes too, and its noise is independent of the input's (``scripts/train_denoiser.py --objective
+pairs`` trains on the static twins of the simulated training scenes).
+
 A checkpoint (model, optimiser, step, random state, loss log) is written atomically every
 ``checkpoint_every`` steps and at the end; :func:`train` given ``resume=True`` continues from it
 and draws the same crops an uninterrupted run would have drawn.  The result is exported to
@@ -63,8 +70,11 @@ from spikeref.io.atomic import atomic_write
 
 #: What the network can be trained on (:attr:`TrainConfig.input_domain`).
 INPUT_DOMAINS = ("count", "rate")
+#: How the network learns (:attr:`TrainConfig.objective`): the paper's Blind2Unblind loss, or pairs of
+#: disjoint stretches of a static stream (Noise2Noise).
+OBJECTIVES = ("b2u", "pairs")
 
-__all__ = ["TrainConfig", "INPUT_DOMAINS", "CropSampler", "masked_volume_torch", "blind_and_visible",
+__all__ = ["TrainConfig", "INPUT_DOMAINS", "OBJECTIVES", "CropSampler", "masked_volume_torch", "blind_and_visible",
            "blind_subset_and_visible", "train_step", "train"]
 
 
@@ -114,6 +124,16 @@ class TrainConfig:
         What a window gives the network: its spike count (Eq. 4, default) or the timing-aware charge
         (:mod:`spikeref.charge`, not in the paper; the crop's planes within
         :data:`~spikeref.charge.DEFAULT_MARGIN` of the window are read too).
+    objective : {"b2u", "pairs"}
+        ``"b2u"`` (default): the paper's self-supervision, Eq. 10–12.  ``"pairs"`` (not in the
+        paper): Noise2Noise on streams of a scene that does not move — the input is one window,
+        the target the spike count of every plane of the same stream that the input did not
+        read (all but ``[t − M, t + W + M)``, ``M`` = :data:`~spikeref.charge.DEFAULT_MARGIN`),
+        scaled to the window's exposure; the loss is the squared error of the visible network,
+        divided by ``W`` as Eq. 12's terms are.  The target's noise is independent of the
+        input's and its mean is the input's mean, so the network learns the conditional mean
+        of the radiance (unlabeled spikes only, no blind spot).  Every stream must be at least
+        ``window_max + 2·M + 100`` planes long.
     """
 
     width: int = 16
@@ -133,6 +153,7 @@ class TrainConfig:
     masks_per_step: int = 1
     seed: int = 0
     accumulate: str = "count"
+    objective: str = "b2u"
 
     def __post_init__(self):
         for name in ("width", "depth", "steps", "batch", "patch", "window_min", "window_max", "cell",
@@ -152,6 +173,8 @@ class TrainConfig:
                 raise ValueError(f"{name} must be a finite number ≥ 0; got {v!r}")
         if self.accumulate not in ACCUMULATE:
             raise ValueError(f"accumulate must be count or charge; got {self.accumulate!r}")
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}; got {self.objective!r}")
         if self.masks_per_step > self.cell**2:
             raise ValueError(f"masks_per_step ({self.masks_per_step}) must be ≤ cell² = {self.cell**2}")
         UNetSpec(width=self.width, depth=self.depth)  # validates the shape
@@ -162,6 +185,10 @@ class TrainConfig:
 
 
 # ----------------------------------------------------------------------------- data
+#: Fewest planes a pair's target may count (:meth:`CropSampler.sample_pairs`).
+PAIR_MIN_TARGET = 100
+
+
 class CropSampler:
     """Random window-rate crops from unlabeled spike streams (steps 1–2 of the module doc).
 
@@ -178,10 +205,13 @@ class CropSampler:
         Images of spike counts ``I·W`` or of firing rates ``I`` (:attr:`TrainConfig.input_domain`).
     accumulate : {"count", "charge"}
         The window's spike count (Eq. 4) or its timing-aware charge (:attr:`TrainConfig.accumulate`).
+    pairs : bool
+        Streams for :meth:`sample_pairs` (:attr:`TrainConfig.objective` ``"pairs"``): each must hold a
+        scene that does not move and be at least ``window_max + 2·M + 100`` planes long.
     """
 
     def __init__(self, streams, patch: int, window_min: int, window_max: int, device="cpu", domain="rate",
-                 accumulate: str = "count"):
+                 accumulate: str = "count", pairs: bool = False):
         if accumulate not in ACCUMULATE:
             raise ValueError(f"accumulate must be count or charge; got {accumulate!r}")
         self.accumulate = accumulate
@@ -202,6 +232,11 @@ class CropSampler:
                                  f"{size}×{size} (2·patch); choose a smaller patch")
             if len(s) < self.window_min:
                 raise ValueError(f"{name}: {len(s)} planes is shorter than window_min = {self.window_min}")
+            if pairs and len(s) < self.window_max + 2 * DEFAULT_MARGIN + PAIR_MIN_TARGET:
+                raise ValueError(f"{name}: {len(s)} planes is too short for pairs: the target needs "
+                                 f"window_max + 2·{DEFAULT_MARGIN} + {PAIR_MIN_TARGET} planes")
+        self.pairs = bool(pairs)
+        self._prefix = {}  # stream index -> (T+1, H, W) uint16 running spike counts, for the pairs' targets
         self._shifts = torch.arange(8, dtype=torch.uint8, device=self.device)
 
     def _window(self, rng: np.random.Generator, stream) -> int:
@@ -250,34 +285,68 @@ class CropSampler:
         counts = bits.sum(0, dtype=torch.int32).reshape(-1)
         return counts[idx].flip(0)  # stored order is bottom-up
 
+    def _target(self, index: int, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
+        """A pair's target: the spike count of every plane of the stream outside ``[t − M, t + w + M)``
+        over the crop, scaled to ``w`` planes (float32, the input's units)."""
+        stream, s = self.streams[index], 2 * self.patch
+        if index not in self._prefix:
+            planes = np.asarray(stream.window(0, len(stream)), dtype=np.uint8)
+            prefix = np.zeros((len(stream) + 1,) + planes.shape[1:], dtype=np.uint16)
+            np.cumsum(planes, axis=0, dtype=np.uint16, out=prefix[1:])
+            self._prefix[index] = prefix
+        prefix = self._prefix[index]
+        lo, hi = max(0, t - DEFAULT_MARGIN), min(len(stream), t + w + DEFAULT_MARGIN)
+        crop = (slice(y0, y0 + s), slice(x0, x0 + s))
+        outside = (prefix[-1][crop].astype(np.float32) - prefix[hi][crop] + prefix[lo][crop])
+        return torch.from_numpy(outside * (w / (len(stream) - (hi - lo)))).to(self.device)
+
+    def _draw(self, rng: np.random.Generator, batch: int, pairs: bool):
+        s = 2 * self.patch
+        out, targets, windows = [], [], []
+        for _ in range(batch):
+            index = int(rng.integers(len(self.streams)))
+            stream = self.streams[index]
+            w = self._window(rng, stream)
+            t = int(rng.integers(0, len(stream) - w + 1))
+            y0 = 2 * int(rng.integers(0, (stream.height - s) // 2 + 1))
+            x0 = 2 * int(rng.integers(0, (stream.width - s) // 2 + 1))
+            image = self._counts(stream, t, w, y0, x0).to(torch.float32)
+            images = [image, self._target(index, t, w, y0, x0)] if pairs else [image]
+            if self.domain == "rate":
+                images = [im / w for im in images]
+            phases = [im.reshape(self.patch, 2, self.patch, 2).permute(1, 3, 0, 2).reshape(4, self.patch, self.patch)
+                      for im in images]
+            for i in range(4):
+                k = int(rng.integers(4))
+                flip = rng.random() < 0.5
+                for plane, dest in zip([p[i] for p in phases], (out, targets)[: len(phases)], strict=True):
+                    dest.append(torch.rot90(plane.flip(-1) if flip else plane, k, (0, 1)))
+            windows += [float(w)] * 4
+        inputs = torch.stack(out)[:, None].contiguous()
+        return inputs, (torch.stack(targets)[:, None].contiguous() if pairs else None), \
+            torch.tensor(windows, dtype=torch.float32, device=self.device)
+
     def sample(self, rng: np.random.Generator, batch: int, with_windows: bool = False):
         """``(4·batch, 1, patch, patch) float32`` images (Eq. 4, per 2×2 phase), augmented.
 
         Firing rates ``count / W``, or the counts themselves when ``domain == "count"``.  With
         ``with_windows``, also the window length ``W`` of each image, ``(4·batch,) float32``.
         """
-        s = 2 * self.patch
-        out, windows = [], []
-        for _ in range(batch):
-            stream = self.streams[int(rng.integers(len(self.streams)))]
-            w = self._window(rng, stream)
-            t = int(rng.integers(0, len(stream) - w + 1))
-            y0 = 2 * int(rng.integers(0, (stream.height - s) // 2 + 1))
-            x0 = 2 * int(rng.integers(0, (stream.width - s) // 2 + 1))
-            image = self._counts(stream, t, w, y0, x0).to(torch.float32)
-            if self.domain == "rate":
-                image = image / w
-            planes = image.reshape(self.patch, 2, self.patch, 2).permute(1, 3, 0, 2).reshape(4, self.patch, self.patch)
-            for plane in planes:
-                k = int(rng.integers(4))
-                if rng.random() < 0.5:
-                    plane = plane.flip(-1)
-                out.append(torch.rot90(plane, k, (0, 1)))
-            windows += [float(w)] * 4
-        images = torch.stack(out)[:, None].contiguous()
-        if with_windows:
-            return images, torch.tensor(windows, dtype=torch.float32, device=self.device)
-        return images
+        images, _, windows = self._draw(rng, batch, pairs=False)
+        return (images, windows) if with_windows else images
+
+    def sample_pairs(self, rng: np.random.Generator, batch: int):
+        """Noise2Noise pairs from static streams: ``inputs, targets`` ``(4·batch, 1, patch, patch) float32``
+        and the windows ``(4·batch,) float32``.
+
+        An input is :meth:`sample`'s image of planes ``[t, t + W)``; its target, the same crop's spike
+        count over every plane outside ``[t − M, t + W + M)`` (none of the planes the input read, with
+        ``M`` = :data:`~spikeref.charge.DEFAULT_MARGIN`) times ``W`` over the number of those planes — in
+        the input's units and augmented with it.  Only for a sampler made with ``pairs=True``.
+        """
+        if not self.pairs:
+            raise ValueError("sample_pairs needs a sampler made with pairs=True (static streams)")
+        return self._draw(rng, batch, pairs=True)
 
 
 # ----------------------------------------------------------------------------- Eq. 10–11 in torch
@@ -357,6 +426,15 @@ def train_step(model, opt, sampler: CropSampler, rng: np.random.Generator, cfg: 
     Draws, in this order, the crops and (with ``cfg.masks_per_step < cell²``) the masks of each
     image from ``rng`` — the order a resumed run replays.
     """
+    if cfg.objective == "pairs":
+        x, target, windows = sampler.sample_pairs(rng, cfg.batch)
+        out = model(x.contiguous(memory_format=torch.channels_last)).contiguous()
+        s = windows.rsqrt()[:, None, None, None]  # per image divided by W, as Eq. 12's terms (below)
+        loss = torch.mean(((out - target) * s) ** 2)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        return float(loss.detach())
     x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
     known = None
     if cfg.masks_per_step < cfg.cell**2:
@@ -432,7 +510,7 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         torch.backends.cudnn.allow_tf32 = True
         torch.backends.cudnn.benchmark = True
     sampler = CropSampler(streams, cfg.patch, cfg.window_min, cfg.window_max, device=dev, domain=cfg.input_domain,
-                          accumulate=cfg.accumulate)
+                          accumulate=cfg.accumulate, pairs=cfg.objective == "pairs")
 
     torch.manual_seed(cfg.seed)
     model = TorchUNet(cfg.spec).to(dev, memory_format=torch.channels_last)
@@ -441,7 +519,7 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
     step, losses, seconds = 0, [], 0.0
     if resume and checkpoint.is_file():
         state = torch.load(checkpoint, map_location=dev, weights_only=False)
-        if state["config"] != asdict(cfg):
+        if {"objective": "b2u", **state["config"]} != asdict(cfg):  # checkpoints older than the objective
             raise ValueError(f"{checkpoint}: written with another configuration {state['config']}; "
                              "use the same options or another checkpoint path")
         model.load_state_dict(state["model"])
@@ -482,9 +560,12 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
     summary = {"steps": step, "final_loss": float(np.mean(losses[-tail:])), "seconds": round(seconds, 1),
                "losses": per_percent}
     meta = {
-        "method": "Blind2Unblind re-visible loss (Eq. 12), blind-spot volume (Eq. 10-11)"
-                  + ("" if cfg.masks_per_step == cfg.cell**2 else
-                     f", {cfg.masks_per_step} of {cfg.cell**2} masks per image and step, loss on their hidden pixels"),
+        "method": ("Noise2Noise on static streams: one window against the count of the planes it did not read"
+                   if cfg.objective == "pairs" else
+                   "Blind2Unblind re-visible loss (Eq. 12), blind-spot volume (Eq. 10-11)"
+                   + ("" if cfg.masks_per_step == cfg.cell**2 else
+                      f", {cfg.masks_per_step} of {cfg.cell**2} masks per image and step, "
+                      "loss on their hidden pixels")),
         "config": asdict(cfg),
         "input_domain": cfg.input_domain,
         "accumulate": cfg.accumulate,
