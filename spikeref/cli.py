@@ -940,7 +940,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--accumulate", choices=["count", "charge"], default="count",
                    help="what each window gives: count (default; Eq. 4, its spikes / W) or charge (the charge its "
                         "pixels integrated, read from the spike times up to 200 readouts around the window's edges; "
-                        "not in the paper; spikeref.charge); without --weights it uses the bundled b2u_w16_charge, "
+                        "not in the paper; spikeref.charge); without --weights it uses the bundled pairs_w16_charge, "
                         "trained on window charges (b2u_w16 with counts)")
     p.add_argument("--no-shrink", action="store_true",
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
@@ -1013,8 +1013,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "at the edges falls by about the firing rate; not in the paper; spikeref.charge, "
                         "docs/results.md) or count (Eq. 4, its spikes; the paper's, and --paper's)")
     p.add_argument("--weights", type=Path, default=None,
-                   help="denoiser weights .npz, or a bundled name: b2u_w16_charge (the default with charges), "
-                        "b2u_w16 (the default with counts) or b2u_w32 (trained on rates; slower)")
+                   help="denoiser weights .npz, or a bundled name: pairs_w16_charge (the default with charges), "
+                        "b2u_w16_charge (charges, the paper's loss), b2u_w16 (the default with counts) or b2u_w32 "
+                        "(trained on rates; slower)")
     p.add_argument("--frames", default=None, help="frame numbers a:b to reconstruct (b excluded; default all); "
                    "chunks give exactly the frames of a full run")
     p.add_argument("--resume", action="store_true",

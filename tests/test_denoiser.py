@@ -65,7 +65,8 @@ def test_long_windows_measure_the_guards_noise_on_their_first_planes():
 
 
 @pytest.mark.parametrize("name, width, domain", [("b2u_w16", 16, "count"), ("b2u_w32", 32, "rate"),
-                                                 ("b2u_w16_charge", 16, "count")])
+                                                 ("b2u_w16_charge", 16, "count"),
+                                                 ("pairs_w16_charge", 16, "count")])
 def test_bundled_weights_load_and_are_documented(name, width, domain):
     den = Denoiser.load(name)  # a bundled name resolves to spikeref/denoise/weights/NAME.npz
     path = DEFAULT_WEIGHTS.parent / f"{name}.npz"
@@ -113,7 +114,7 @@ def test_cli_denoise_writes_video_and_exr(tmp_path):
 
 
 def test_cli_denoise_charge_takes_the_charge_network(tmp_path, monkeypatch):
-    """--accumulate charge: window charges (spikeref.charge) and, without --weights, b2u_w16_charge."""
+    """--accumulate charge: window charges (spikeref.charge) and, without --weights, pairs_w16_charge."""
     import spikeref.cli as cli
 
     loaded = []
@@ -121,17 +122,17 @@ def test_cli_denoise_charge_takes_the_charge_network(tmp_path, monkeypatch):
     monkeypatch.setattr(cli, "_load_denoiser", lambda weights, **kw: loaded.append(weights) or real(weights, **kw))
     out = tmp_path / "c.mp4"
     assert main(["denoise", "-W", "10", "--frames", "1", "--accumulate", "charge", "-o", str(out)]) == 0
-    assert out.stat().st_size > 0 and loaded == ["b2u_w16_charge"]
+    assert out.stat().st_size > 0 and loaded == ["pairs_w16_charge"]
 
 
 def test_each_accumulation_loads_the_network_trained_on_it(tmp_path, monkeypatch):
-    """bundled_weights: counts → b2u_w16, charges → b2u_w16_charge; the pipeline without a denoiser and
+    """bundled_weights: counts → b2u_w16, charges → pairs_w16_charge; the pipeline without a denoiser and
     `spikeref reconstruct` without --weights load the one for their accumulation (charges by default)."""
     import spikeref.cli as cli
     from spikeref.denoise.denoiser import bundled_weights
     from spikeref.pipeline import ReconstructParams, Reconstructor
 
-    assert bundled_weights("count").name == "b2u_w16.npz" and bundled_weights("charge").name == "b2u_w16_charge.npz"
+    assert bundled_weights("count").name == "b2u_w16.npz" and bundled_weights("charge").name == "pairs_w16_charge.npz"
     with pytest.raises(ValueError, match="accumulate must be one of count, charge"):
         bundled_weights("photons")
     loaded = []
@@ -140,13 +141,13 @@ def test_each_accumulation_loads_the_network_trained_on_it(tmp_path, monkeypatch
                                                      or real_load(c, path, **kw)))
     Reconstructor(load_sample(), ReconstructParams())
     Reconstructor(load_sample(), ReconstructParams.paper())
-    assert [p.name for p in loaded] == ["b2u_w16_charge.npz", "b2u_w16.npz"]
+    assert [p.name for p in loaded] == ["pairs_w16_charge.npz", "b2u_w16.npz"]
     names = []
     real = cli._load_denoiser
     monkeypatch.setattr(cli, "_load_denoiser", lambda weights, **kw: names.append(str(weights)) or real(weights, **kw))
     for extra in ([], ["--paper"], ["--accumulate", "count"]):
         assert main(["reconstruct", "--frames", "3:4", "-o", str(tmp_path / "r.mp4"), *extra]) == 0
-    assert names == ["b2u_w16_charge", "b2u_w16", "b2u_w16"]
+    assert names == ["pairs_w16_charge", "b2u_w16", "b2u_w16"]
 
 
 def test_cli_denoise_errors(tmp_path, capsys):

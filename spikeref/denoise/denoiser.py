@@ -31,7 +31,7 @@ __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR", "BUNDLED_FOR", "bundled
 WEIGHTS_DIR = Path(__file__).resolve().parent / "weights"
 #: The bundled network for what a window gives (``accumulate=`` of the pipeline, ``Denoiser.frames``
 #: and the CLI): each was trained on that input's noise (``docs/results.md``).
-BUNDLED_FOR = {"count": "b2u_w16", "charge": "b2u_w16_charge"}
+BUNDLED_FOR = {"count": "b2u_w16", "charge": "pairs_w16_charge"}
 #: The bundled weights used when none are named (trained on Eq. 4's counts).
 DEFAULT_WEIGHTS = WEIGHTS_DIR / f"{BUNDLED_FOR['count']}.npz"
 
@@ -121,9 +121,11 @@ class Denoiser:
         """From a weights ``.npz`` or the name of a bundled file (default: :data:`DEFAULT_WEIGHTS`).
 
         Bundled (``spikeref/denoise/weights/``, see ``docs/results.md``): ``b2u_w16`` (width 16,
-        trained on counts; the default here and for ``accumulate="count"``), ``b2u_w16_charge`` (width
-        16, trained on the timing-aware window charge of :mod:`spikeref.charge`: for
-        ``accumulate="charge"``, the pipeline's default; :func:`bundled_weights`) and ``b2u_w32``
+        trained on counts; the default here and for ``accumulate="count"``), ``pairs_w16_charge`` (width
+        16, trained on the timing-aware window charge of :mod:`spikeref.charge` by Noise2Noise pairs
+        of static streams, not the paper's loss: for ``accumulate="charge"``, the pipeline's default;
+        :func:`bundled_weights`), ``b2u_w16_charge`` (the same input, Blind2Unblind's loss; the default
+        for charges until 2026-11-24) and ``b2u_w32``
         (width 32, trained on rates; about four times the time per frame with the direct convolution).
         """
         if path is None:
