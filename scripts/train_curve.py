@@ -13,6 +13,10 @@ read here.
 
     python scripts/train_curve.py out/run/*.npz [--windows 10,50] [--scenes astronaut_pan,...] [--csv F]
     python scripts/train_curve.py --plot docs/train_curve.png --csv F      # the figure from the rows in F
+
+``--accumulate charge`` scores on the windows' charges (``spikeref.charge``) instead of Eq. 4's rates,
+for the networks trained on them: ``docs/train_curve_charge.png`` compares the blind-spot loss
+(``b2u_w16_charge``'s run) with the pairs objective (``pairs_w16_charge``'s) on the same input.
 """
 
 from __future__ import annotations
@@ -38,12 +42,14 @@ def main() -> None:
     ap.add_argument("--scenes", default=DEFAULT_SCENES)
     ap.add_argument("--csv", type=Path, default=None, help="append rows (file, seconds, steps, W, PSNR) here")
     ap.add_argument("--plot", type=Path, default=None, help="draw PSNR against training seconds from --csv (PNG)")
+    ap.add_argument("--accumulate", choices=("count", "charge"), default="count",
+                    help="score on Eq. 4's rates (count) or the windows' charges (charge)")
     args = ap.parse_args()
     if args.plot:
         plot(args.csv, args.plot)
         return
     windows = [int(w) for w in args.windows.split(",")]
-    data = list(scene_cases("bench", windows, args.scenes.split(",")))
+    data = list(scene_cases("bench", windows, args.scenes.split(","), accumulate=args.accumulate))
     rows = []
     identity = {w: np.mean([score(t, demosaic_bilinear(bayer_mosaic(p), cfa)) for _, ww, p, t, cfa in data if ww == w])
                 for w in windows}
@@ -79,19 +85,24 @@ def plot(table: Path, out: Path) -> None:
 
     rows = list(csv.DictReader(open(table)))
     fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=110)
-    for recipe, label, style in (("paper", "paper recipe (16 masks, 128² crops)", "s--"),
-                                 ("cpu", "CPU recipe (1 mask, 64² crops)", "o-")):
+    def recipe_of(name: str) -> str:
+        return "pairs" if "_pairs_" in name else "paper" if "_paper_" in name else "cpu"
+
+    labels = {"paper": ("paper recipe (16 masks, 128² crops)", "s--"), "cpu": ("CPU recipe (1 mask, 64² crops)", "o-"),
+              "pairs": ("pairs objective (Noise2Noise, static streams)", "^-.")}
+    if any(recipe_of(r["file"]) == "pairs" for r in rows):
+        labels["cpu"] = ("blind-spot loss, CPU recipe", "o-")
+    for recipe, (label, style) in labels.items():
         for w, colour in (("10", "C0"), ("50", "C1")):
             pts = sorted((float(r["train_seconds"]), float(r["psnr_db"])) for r in rows
-                         if r["W"] == w and r["file"].startswith("snap_")
-                         and ("_paper_" in r["file"]) == (recipe == "paper"))
+                         if r["W"] == w and r["file"].startswith("snap_") and recipe_of(r["file"]) == recipe)
             if pts:
                 ax.plot([p[0] / 60 for p in pts], [p[1] for p in pts], style, color=colour, label=f"{label}, W = {w}")
-    ax.set_xlabel("training wall time on 2 CPU cores (min)")
+    ax.set_xlabel("training wall time on the 2-core VM (min)")
     ax.set_ylabel("PSNR, denoise mode (dB)")
     ax.set_title("Validation (benchmark scenes) against training time", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="center right")
     fig.tight_layout()
     fig.savefig(out)
     print(f"wrote {out}")
