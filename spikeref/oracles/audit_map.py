@@ -258,6 +258,16 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         golden='—',
     ),
     AuditRow(
+        equation='— (training; not in the paper)',
+        what=('Noise2Noise pairs on static streams (`TrainConfig(objective="pairs")`, the bundled charge network): '
+              'one window against the spike count of every plane its input did not read, scaled to `W`'),
+        function='`spikeref.denoise.train.CropSampler.sample_pairs`, `train_step` (`spikeref train --objective pairs`)',
+        oracle='the literal sums in the test (planes outside `[t − 200, t + W + 200)`, times `W` over their number)',
+        tests=('`tests/test_train.py` (target = those sums, in-memory and packed; input and target turned together; '
+               'too-short streams refused; resume = uninterrupted run)'),
+        golden='—',
+    ),
+    AuditRow(
         equation='13',
         what='`R_0 = Ψ[D(I_0)]`, for flow only; output `R_L = Ψ[D(I_L)]`; the whole of Fig. 3(b)',
         function='`spikeref.pipeline.Reconstructor`, `reconstruct` (`spikeref reconstruct`)',
