@@ -117,7 +117,7 @@ def real_cases(windows, short: int | None = None, accumulate: str = "count"):
 def main() -> None:
     from spikeref.bayer import bayer_mosaic, demosaic_bilinear
     from spikeref.denoise.denoiser import DEFAULT_WEIGHTS, Denoiser
-    from spikeref.denoise.guard import NOISE_WINDOW
+    from spikeref.denoise.guard import DEFAULT_RADIUS, NOISE_WINDOW
     from spikeref.denoise.peers import PeerDenoiser, peer_available
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -131,6 +131,8 @@ def main() -> None:
                          "for every method (the guard's short window too)")
     ap.add_argument("--plane-noise", action="store_true",
                     help="also the guard with σ from the plane alone at every W (before 2026-11-24's default)")
+    ap.add_argument("--guard-radius", type=int, nargs="+", default=[DEFAULT_RADIUS],
+                    help="the guard's box radius(es), plane pixels (spikeref.denoise.guard.DEFAULT_RADIUS)")
     ap.add_argument("--speed", action="store_true", help="seconds per 250×400 frame, network against BM3D")
     args = ap.parse_args()
     windows = [int(w) for w in args.windows.split(",")]
@@ -138,14 +140,17 @@ def main() -> None:
     several = len(args.weights) > 1
     for path in args.weights:
         tag = f" {path.stem}" if several else ""
-        plain, guarded = Denoiser.load(path, guard="off"), Denoiser.load(path)
+        plain = Denoiser.load(path, guard="off")
         if not args.no_plain:
             methods["network" + tag] = lambda p, w, s, d=plain: d(p, window=w)
-        if args.plane_noise:
-            methods["network + guard, σ of the plane" + tag] = lambda p, w, s, d=guarded: d(p, window=w)
-        methods["network + guard" + tag] = lambda p, w, s, d=guarded: (
-            d(p, window=w, short=s, short_window=NOISE_WINDOW, accumulate=args.accumulate)
-            if w > NOISE_WINDOW and s is not None else d(p, window=w, accumulate=args.accumulate))
+        for radius in args.guard_radius:
+            guarded = Denoiser.load(path, guard_radius=radius)
+            rtag = tag + ("" if args.guard_radius == [DEFAULT_RADIUS] else f", radius {radius}")
+            if args.plane_noise:
+                methods["network + guard, σ of the plane" + rtag] = lambda p, w, s, d=guarded: d(p, window=w)
+            methods["network + guard" + rtag] = lambda p, w, s, d=guarded: (
+                d(p, window=w, short=s, short_window=NOISE_WINDOW, accumulate=args.accumulate)
+                if w > NOISE_WINDOW and s is not None else d(p, window=w, accumulate=args.accumulate))
     if not args.no_peers:
         for name in ("bm3d", "nlm"):
             if peer_available(name):
