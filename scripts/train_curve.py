@@ -98,7 +98,7 @@ def plot(table: Path, out: Path) -> None:
                          if r["W"] == w and r["file"].startswith("snap_") and recipe_of(r["file"]) == recipe)
             if pts:
                 ax.plot([p[0] / 60 for p in pts], [p[1] for p in pts], style, color=colour, label=f"{label}, W = {w}")
-    ax.set_xlabel("training wall time on the 2-core VM (min)")
+    ax.set_xlabel("training wall time, one thread (min)")
     ax.set_ylabel("PSNR, denoise mode (dB)")
     ax.set_title("Validation (benchmark scenes) against training time", fontsize=10)
     ax.grid(alpha=0.3)

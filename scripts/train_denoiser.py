@@ -16,7 +16,17 @@
    every ``steps/N`` steps (``snap_w<C>_<step>.npz``, metadata ``train_seconds``) for the
    PSNR-against-wall-time curve (``scripts/train_curve.py``).
 
-Recipes (``--recipe``):
+Objectives (``--objective``):
+
+* ``b2u`` (default): the paper's Blind2Unblind loss (Eq. 10–12) on the data of steps 1–2.
+* ``pairs`` (not in the paper; the bundled ``pairs_w16_charge``): Noise2Noise on the static twins of
+  the simulated scenes (``scripts/denoiser_scenes/train_static_*.toml``, 1000 planes each, simulated
+  into ``--data-dir`` if missing; no real recording, as those move) — one window against the spike
+  count of every plane it did not read.  Writes ``pairs_w<C>[_charge].npz``:
+
+    python scripts/train_denoiser.py --objective pairs --accumulate charge --steps 4000   # one thread: OMP_NUM_THREADS=1
+
+Recipes (``--recipe``; ``--probe`` times the two with the b2u objective):
 
 * ``cpu`` (default): one of the 16 blind-spot masks per image and step, loss on its hidden
   pixels (``TrainConfig.masks_per_step = 1``), 64×64 plane crops, 16 crops (64 images) a step.

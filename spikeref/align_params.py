@@ -23,16 +23,17 @@ warping there scores 2.9 dB below plain accumulation over the same support.
   more than ``z`` standard deviations of ``D(c) − D(u)`` under white noise — ``√(12 S_k Σ v_k²)``
   (L2) or ``√(1.128 Σ v_k)`` (L1) over the tile, ``v_k`` the noise variance of a level-``k``
   pixel and ``S_k`` the inflation by the pyramid blur's spatial correlation
-  (:func:`level_noise_factors`).  Zero is tried at every level, even outside the search window
-  around the centre, so that a spurious coarse vector is not handed down to every finer tile.
+  (:func:`~spikeref.align_noise.level_noise_factors`).  Zero is tried at every level, even outside the
+  search window around the centre, so that a spurious coarse vector is not handed down to every finer tile.
 
-(The noise model — :func:`level_noise_factors`, :func:`local_noise`, :func:`estimate_noise_correlation`,
-:data:`MIN_CORRELATION`, :func:`zero_motion_test` — is in :mod:`spikeref.align_noise`.)
-``v`` is a per-pixel map at level 0 (``noise``; default :func:`local_noise` of the two images,
-Immerkær's estimator over a 15×15 box: spike noise depends on the rate) carried to level ``k`` by
-the pyramid's blur; ``ρ`` is ``correlation`` (default :func:`estimate_noise_correlation`), clipped
-below at :data:`MIN_CORRELATION`.  With ``noise = 0`` the option is the plain search with zero motion
-as one more candidate at every level.  The sub-pixel fit is unchanged.
+(The noise model — :func:`~spikeref.align_noise.level_noise_factors`, :func:`~spikeref.align_noise.local_noise`,
+:func:`~spikeref.align_noise.estimate_noise_correlation`, :data:`~spikeref.align_noise.MIN_CORRELATION`,
+:func:`~spikeref.align_noise.zero_motion_test` — is in :mod:`spikeref.align_noise`.)
+``v`` is a per-pixel map at level 0 (``noise``; default :func:`~spikeref.align_noise.local_noise` of the two
+images, Immerkær's estimator over a 15×15 box: spike noise depends on the rate) carried to level ``k`` by
+the pyramid's blur; ``ρ`` is ``correlation`` (default :func:`~spikeref.align_noise.estimate_noise_correlation`),
+clipped below at :data:`~spikeref.align_noise.MIN_CORRELATION`.  With ``noise = 0`` the option is the plain
+search with zero motion as one more candidate at every level.  The sub-pixel fit is unchanged.
 
 Sub-pixel refinement by Lucas–Kanade (an option: ``AlignParams.refine = "lk"``; not in the paper or HDR+)
 -------------------------------------------------------------------------------------------------------
@@ -63,13 +64,14 @@ Per-pixel zero-motion test (an option: ``AlignParams.zero_test = z``; not in the
 ---------------------------------------------------------------------------------------------
 Tile vectors interpolated between tile centres carry a moving object's motion onto the still pixels
 beside it (the benchmark's fan: 0.64 plane px of mean flow on its still background, where warping
-then costs more than alignment gains).  :func:`align` (and the pipeline, on the raw 2×2 luma) sets the
-dense flow to zero at pixels where the zero offset explains the two frames better than the flow by
-more than ``z`` standard deviations of what noise gives, summed over a :data:`ZERO_TEST_BOX`-pixel box
-(:func:`zero_motion_test`: the expected noise-only difference of the two squared residuals — bilinear
-interpolation lowers the noise of the warped frame, and adjacent windows' noise is anti-correlated at
-the zero offset — is taken out, and its variance under Gaussian noise scales the threshold).  Where the
-data cannot tell the two apart (flat regions), the flow is kept.
+then costs more than alignment gains).  :func:`spikeref.align.align` (and the pipeline, on the raw 2×2
+luma) sets the dense flow to zero at pixels where the zero offset explains the two frames better than the
+flow by more than ``z`` standard deviations of what noise gives, summed over a
+:data:`~spikeref.align_noise.ZERO_TEST_BOX`-pixel box (:func:`~spikeref.align_noise.zero_motion_test`: the
+expected noise-only difference of the two squared residuals — bilinear interpolation lowers the noise of
+the warped frame, and adjacent windows' noise is anti-correlated at the zero offset — is taken out, and
+its variance under Gaussian noise scales the threshold).  Where the data cannot tell the two apart (flat
+regions), the flow is kept.
 """
 
 from __future__ import annotations
@@ -155,7 +157,7 @@ class AlignParams:
         Per-pixel zero-motion test on the dense flow (not in the paper or HDR+; "Per-pixel zero-motion
         test" in the module doc): the flow is set to zero at pixels where the zero offset explains the
         two frames better than the flow by more than ``zero_test`` standard deviations of what noise
-        gives, over a :data:`ZERO_TEST_BOX`-pixel box.  ``None`` (default): off.
+        gives, over a :data:`~spikeref.align_noise.ZERO_TEST_BOX`-pixel box.  ``None`` (default): off.
     """
 
     levels: int = 4
@@ -246,7 +248,7 @@ class AlignParams:
             ``self`` when it fits already (``n ≥ min_size(step)`` for every entry of
             ``tile_by_step``); ``None`` when not even one level fits: ``n < 2`` (a tile is at
             least 2×2), or ``n < 3`` with ``prefer_centre > 0``, ``smoothness > 0`` or a ``zero_test`` (their noise
-            estimate, :func:`local_noise`, needs 3×3 pixels).  The pipeline then uses zero flow.
+            estimate, :func:`~spikeref.align_noise.local_noise`, needs 3×3 pixels).  The pipeline then uses zero flow.
         """
         for name, v in (("height", height), ("width", width)):
             if not _is_int(v) or v < 1:

@@ -316,3 +316,43 @@ def test_pairs_training_lowers_the_loss_resumes_and_is_recorded(tmp_path):
     again = UNet.load(tmp_path / "r.npz")
     for key in net.params:
         np.testing.assert_array_equal(net.params[key], again.params[key], err_msg=key)
+
+
+def test_a_pair_is_the_target_of_its_own_window():
+    """sample_pairs hands _target the very window, crop and stream its input came from."""
+    stream = SpikeStream.from_array(_static_stream(seed=9))
+    sampler = tr.CropSampler([stream], 16, 5, 20, domain="count", pairs=True)
+    seen, counts, targets = [], sampler._counts, sampler._target
+    sampler._counts = lambda s, t, w, y0, x0: seen.append(("input", t, w, y0, x0)) or counts(s, t, w, y0, x0)
+    sampler._target = lambda i, t, w, y0, x0, *a: seen.append(("target", t, w, y0, x0)) or targets(i, t, w, y0, x0, *a)
+    sampler.sample_pairs(np.random.default_rng(3), 5)
+    assert len(seen) == 10
+    for got_input, got_target in zip(seen[::2], seen[1::2], strict=True):
+        assert got_input[0] == "input" and got_target[0] == "target" and got_input[1:] == got_target[1:]
+    assert len({s[1] for s in seen}) > 1  # several windows were drawn
+
+
+def test_pairs_in_the_rate_domain_are_rates():
+    stream = SpikeStream.from_array(_static_stream(seed=10))
+    counts, ct, w = tr.CropSampler([stream], 16, 5, 20, domain="count", pairs=True).sample_pairs(
+        np.random.default_rng(4), 3)
+    rates, rt, _ = tr.CropSampler([stream], 16, 5, 20, domain="rate", pairs=True).sample_pairs(
+        np.random.default_rng(4), 3)
+    np.testing.assert_allclose(rates * w[:, None, None, None], counts, rtol=1e-6)
+    np.testing.assert_allclose(rt * w[:, None, None, None], ct, rtol=1e-6)
+
+
+def test_a_checkpoint_written_before_the_objective_resumes_as_b2u(tmp_path):
+    """Checkpoints whose configuration has no "objective" (written before it existed) resume as b2u."""
+    streams = [SpikeStream.from_array(_spikes())]
+    cfg = _tiny_config()
+    tr.train(streams, tmp_path / "w.npz", cfg, device="cpu", progress=False, stop_after=3)
+    ckpt = tmp_path / "w.npz.ckpt"
+    state = torch.load(ckpt, weights_only=False)
+    del state["config"]["objective"]
+    torch.save(state, ckpt)
+    tr.train(streams, tmp_path / "w.npz", cfg, device="cpu", progress=False, resume=True)
+    assert UNet.load(tmp_path / "w.npz").meta["steps_run"] == cfg.steps
+    with pytest.raises(ValueError, match="another configuration"):
+        tr.train([SpikeStream.from_array(_static_stream())], tmp_path / "w.npz", _tiny_config(objective="pairs"),
+                 device="cpu", progress=False, resume=True)  # a pairs run does not take over a b2u checkpoint

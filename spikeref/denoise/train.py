@@ -39,9 +39,11 @@ Cost: a step runs the network with gradient on ``k·4·batch`` images and withou
 With ``objective="pairs"`` (not in the paper; :attr:`TrainConfig.objective`) steps 3–4 are replaced by
 Noise2Noise on streams of scenes that do not move: the network on the visible window, its squared
 error against the spike count of every plane of the same stream the window's input did not read
-(scaled to the window's exposure), divided by ``W``.  No blind spot, no ground truth: the target is
-spikes too, and its noise is independent of the input's (``scripts/train_denoiser.py --objective
-pairs`` trains on the static twins of the simulated training scenes).
+(scaled to the window's exposure; on counts divided by ``W``).  No blind spot, no ground truth: the
+target is spikes too, sharing no plane with the input (``scripts/train_denoiser.py --objective
+pairs`` trains on the static twins of the simulated training scenes).  The network learns each
+pixel's expected rate; it never sees a masked input, so the blind and mixed modes of
+:class:`~spikeref.denoise.denoiser.Denoiser` do not suit it (use ``mode="visible"``, the default).
 
 A checkpoint (model, optimiser, step, random state, loss log) is written atomically every
 ``checkpoint_every`` steps and at the end; :func:`train` given ``resume=True`` continues from it
@@ -129,11 +131,13 @@ class TrainConfig:
         paper): Noise2Noise on streams of a scene that does not move — the input is one window,
         the target the spike count of every plane of the same stream that the input did not
         read (all but ``[t − M, t + W + M)``, ``M`` = :data:`~spikeref.charge.DEFAULT_MARGIN`),
-        scaled to the window's exposure; the loss is the squared error of the visible network,
-        divided by ``W`` as Eq. 12's terms are.  The target's noise is independent of the
-        input's and its mean is the input's mean, so the network learns the conditional mean
-        of the radiance (unlabeled spikes only, no blind spot).  Every stream must be at least
-        ``window_max + 2·M + 100`` planes long.
+        scaled to the window's exposure; the loss is the squared error of the visible network
+        (on counts divided by ``W``, as Eq. 12's terms are).  The target shares no plane with
+        what the input read and has the input's mean, so the network learns the conditional mean
+        of each pixel's expected firing rate — the sensor's fixed-pattern effects (threshold
+        spread, hot pixels) included, as they are in both; the integrate-and-fire residual makes
+        the two only nearly independent for dim pixels (unlabeled spikes only, no blind spot).
+        Every stream must be at least ``window_max + 2·M + 100`` planes long.
     """
 
     width: int = 16
@@ -236,7 +240,7 @@ class CropSampler:
                 raise ValueError(f"{name}: {len(s)} planes is too short for pairs: the target needs "
                                  f"window_max + 2·{DEFAULT_MARGIN} + {PAIR_MIN_TARGET} planes")
         self.pairs = bool(pairs)
-        self._prefix = {}  # stream index -> (T+1, H, W) uint16 running spike counts, for the pairs' targets
+        self._totals = {}  # stream index -> (H, W) spike count of the whole stream, for the pairs' targets
         self._shifts = torch.arange(8, dtype=torch.uint8, device=self.device)
 
     def _window(self, rng: np.random.Generator, stream) -> int:
@@ -257,8 +261,9 @@ class CropSampler:
         starts = torch.arange(s, device=device) * wf + (bit_lo - 8 * byte_lo)
         return byte_lo, byte_hi, starts[:, None] + torch.arange(s, device=device)[None, :]
 
-    def _charge(self, stream, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
-        """The charge (:func:`spikeref.charge.window_charge`) of planes ``[t, t+w)`` over the crop."""
+    def _charge(self, stream, t: int, w: int, y0: int, x0: int, with_count: bool = False):
+        """The charge (:func:`spikeref.charge.window_charge`) of planes ``[t, t+w)`` over the crop; with
+        ``with_count``, also the spike count of the planes it read, ``[t − M, t + w + M)`` within the stream."""
         s = 2 * self.patch
         lo, hi = max(0, t - DEFAULT_MARGIN), min(len(stream), t + w + DEFAULT_MARGIN)
         if stream.array is not None:
@@ -268,13 +273,19 @@ class CropSampler:
             raw = torch.from_numpy(np.array(stream.packed[lo:hi, byte_lo:byte_hi]))
             bits = ((raw[..., None] >> self._shifts.cpu()) & 1).reshape(hi - lo, -1)  # LSB first
             block = np.ascontiguousarray(bits[:, idx].flip(1).numpy(), dtype=np.uint8)  # stored bottom-up
-        charge = window_charge(block, w, start=t - lo, count=1, margin=DEFAULT_MARGIN)[0]
-        return torch.from_numpy(charge).to(self.device)
+        charge = torch.from_numpy(window_charge(block, w, start=t - lo, count=1, margin=DEFAULT_MARGIN)[0])
+        if with_count:
+            return charge.to(self.device), torch.from_numpy(block.sum(0, dtype=np.int32)).to(self.device)
+        return charge.to(self.device)
 
     def _counts(self, stream, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
-        """Spike counts of planes ``[t, t+w)`` over the upright crop ``[y0, y0+s) × [x0, x0+s)``."""
+        """What the window gives over the crop: its charge with ``accumulate="charge"``, else its spike count."""
         if self.accumulate == "charge":
             return self._charge(stream, t, w, y0, x0)
+        return self._spike_count(stream, t, w, y0, x0)
+
+    def _spike_count(self, stream, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
+        """Spike counts of planes ``[t, t+w)`` over the upright crop ``[y0, y0+s) × [x0, x0+s)``."""
         s = 2 * self.patch
         if stream.array is not None:
             block = np.ascontiguousarray(stream.array[t : t + w, y0 : y0 + s, x0 : x0 + s])
@@ -285,20 +296,26 @@ class CropSampler:
         counts = bits.sum(0, dtype=torch.int32).reshape(-1)
         return counts[idx].flip(0)  # stored order is bottom-up
 
-    def _target(self, index: int, t: int, w: int, y0: int, x0: int) -> torch.Tensor:
+    def _total(self, index: int) -> np.ndarray:
+        """The spike count of every plane of stream ``index``, ``(H, W) int64`` (made once, 256 planes at a time)."""
+        if index not in self._totals:
+            stream = self.streams[index]
+            total = np.zeros((stream.height, stream.width), np.int64)
+            for a in range(0, len(stream), 256):
+                total += np.asarray(stream.window(a, min(len(stream) - a, 256)), np.uint8).sum(0, dtype=np.int64)
+            self._totals[index] = total
+        return self._totals[index]
+
+    def _target(self, index: int, t: int, w: int, y0: int, x0: int, read=None) -> torch.Tensor:
         """A pair's target: the spike count of every plane of the stream outside ``[t − M, t + w + M)``
-        over the crop, scaled to ``w`` planes (float32, the input's units)."""
+        over the crop, scaled to ``w`` planes (float32, the input's units).  ``read``: the crop's count over
+        those planes when the caller has it (:meth:`_charge` with ``with_count``)."""
         stream, s = self.streams[index], 2 * self.patch
-        if index not in self._prefix:
-            planes = np.asarray(stream.window(0, len(stream)), dtype=np.uint8)
-            prefix = np.zeros((len(stream) + 1,) + planes.shape[1:], dtype=np.uint16)
-            np.cumsum(planes, axis=0, dtype=np.uint16, out=prefix[1:])
-            self._prefix[index] = prefix
-        prefix = self._prefix[index]
         lo, hi = max(0, t - DEFAULT_MARGIN), min(len(stream), t + w + DEFAULT_MARGIN)
-        crop = (slice(y0, y0 + s), slice(x0, x0 + s))
-        outside = (prefix[-1][crop].astype(np.float32) - prefix[hi][crop] + prefix[lo][crop])
-        return torch.from_numpy(outside * (w / (len(stream) - (hi - lo)))).to(self.device)
+        if read is None:
+            read = self._spike_count(stream, lo, hi - lo, y0, x0)
+        outside = torch.from_numpy(self._total(index)[y0 : y0 + s, x0 : x0 + s]).to(self.device) - read.to(torch.int64)
+        return outside.to(torch.float32) * (w / (len(stream) - (hi - lo)))
 
     def _draw(self, rng: np.random.Generator, batch: int, pairs: bool):
         s = 2 * self.patch
@@ -310,8 +327,12 @@ class CropSampler:
             t = int(rng.integers(0, len(stream) - w + 1))
             y0 = 2 * int(rng.integers(0, (stream.height - s) // 2 + 1))
             x0 = 2 * int(rng.integers(0, (stream.width - s) // 2 + 1))
-            image = self._counts(stream, t, w, y0, x0).to(torch.float32)
-            images = [image, self._target(index, t, w, y0, x0)] if pairs else [image]
+            if pairs and self.accumulate == "charge":  # the planes the charge read give the target's complement
+                image, read = self._charge(stream, t, w, y0, x0, with_count=True)
+                images = [image.to(torch.float32), self._target(index, t, w, y0, x0, read)]
+            else:
+                image = self._counts(stream, t, w, y0, x0).to(torch.float32)
+                images = [image, self._target(index, t, w, y0, x0)] if pairs else [image]
             if self.domain == "rate":
                 images = [im / w for im in images]
             phases = [im.reshape(self.patch, 2, self.patch, 2).permute(1, 3, 0, 2).reshape(4, self.patch, self.patch)
@@ -429,8 +450,10 @@ def train_step(model, opt, sampler: CropSampler, rng: np.random.Generator, cfg: 
     if cfg.objective == "pairs":
         x, target, windows = sampler.sample_pairs(rng, cfg.batch)
         out = model(x.contiguous(memory_format=torch.channels_last)).contiguous()
-        s = windows.rsqrt()[:, None, None, None]  # per image divided by W, as Eq. 12's terms (below)
-        loss = torch.mean(((out - target) * s) ** 2)
+        err = out - target
+        if cfg.input_domain == "count":  # per image divided by W, as Eq. 12's terms are (below)
+            err = err * windows.rsqrt()[:, None, None, None]
+        loss = torch.mean(err**2)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
