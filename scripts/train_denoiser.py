@@ -24,7 +24,7 @@ Objectives (``--objective``):
   into ``--data-dir`` if missing; no real recording, as those move) — one window against the spike
   count of every plane it did not read.  Writes ``pairs_w<C>[_charge].npz``:
 
-    python scripts/train_denoiser.py --objective pairs --accumulate charge --steps 4000   # one thread: OMP_NUM_THREADS=1
+    python scripts/train_denoiser.py --objective pairs --accumulate charge --steps 4000
 
 Recipes (``--recipe``; ``--probe`` times the two with the b2u objective):
 
