@@ -1085,7 +1085,10 @@ def build_parser() -> argparse.ArgumentParser:
                                    "a checkpoint every --checkpoint-every steps; --resume continues from it. The "
                                    "defaults are the CPU recipe of the bundled b2u_w16 (about 50 minutes on two "
                                    "cores; OMP_NUM_THREADS=1 when other jobs share them); the paper's recipe is "
-                                   "--masks-per-step 16 --patch 128 --batch 8.",
+                                   "--masks-per-step 16 --patch 128 --batch 8. --objective pairs (not in the "
+                                   "paper) trains by Noise2Noise pairs of windows of recordings of scenes that do "
+                                   "not move, as the bundled charge network pairs_w16_charge was "
+                                   "(scripts/train_denoiser.py).",
                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     p.add_argument("data", type=Path, nargs="+", help="spike files (.dat with NAME.json, .npy, .npz), colour or mono")
     p.add_argument("-o", "--output", type=Path, required=True, help="weights file to write (.npz)")
