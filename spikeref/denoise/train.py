@@ -63,6 +63,7 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
+from spikeref.accumulate import window_counts
 from spikeref.charge import ACCUMULATE, DEFAULT_MARGIN, window_charge
 from spikeref.denoise.blindspot import FILL_KERNEL, cell_masks
 from spikeref.denoise.revisible import lambda_schedule, revisible_loss_torch
@@ -297,13 +298,11 @@ class CropSampler:
         return counts[idx].flip(0)  # stored order is bottom-up
 
     def _total(self, index: int) -> np.ndarray:
-        """The spike count of every plane of stream ``index``, ``(H, W) int64`` (made once, 256 planes at a time)."""
+        """The spike count of every plane of stream ``index``, ``(H, W) int64`` (Eq. 4's sum over the whole
+        stream, :func:`spikeref.accumulate.window_counts`; made once)."""
         if index not in self._totals:
             stream = self.streams[index]
-            total = np.zeros((stream.height, stream.width), np.int64)
-            for a in range(0, len(stream), 256):
-                total += np.asarray(stream.window(a, min(len(stream) - a, 256)), np.uint8).sum(0, dtype=np.int64)
-            self._totals[index] = total
+            self._totals[index] = window_counts(stream, len(stream), 0, 1)[0].astype(np.int64)
         return self._totals[index]
 
     def _target(self, index: int, t: int, w: int, y0: int, x0: int, read=None) -> torch.Tensor:
@@ -449,29 +448,23 @@ def train_step(model, opt, sampler: CropSampler, rng: np.random.Generator, cfg: 
     """
     if cfg.objective == "pairs":
         x, target, windows = sampler.sample_pairs(rng, cfg.batch)
-        out = model(x.contiguous(memory_format=torch.channels_last)).contiguous()
-        err = out - target
-        if cfg.input_domain == "count":  # per image divided by W, as Eq. 12's terms are (below)
-            err = err * windows.rsqrt()[:, None, None, None]
-        loss = torch.mean(err**2)
-        opt.zero_grad(set_to_none=True)
-        loss.backward()
-        opt.step()
-        return float(loss.detach())
-    x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
-    known = None
-    if cfg.masks_per_step < cfg.cell**2:
-        subset = np.argsort(rng.random((x.shape[0], cfg.cell**2)), axis=1)[:, : cfg.masks_per_step]
-        blind, visible, known = blind_subset_and_visible(model, x, torch.from_numpy(subset.T.copy()).to(x.device),
-                                                         cfg.cell)
     else:
-        blind, visible = blind_and_visible(model, x, cfg.cell)
-    if cfg.input_domain == "count":
-        # Eq. 12 per image divided by W: count-domain errors grow with W, their noise does not;
-        # 1/W sits between the two so that no octave of W swamps the gradient
-        s = windows.rsqrt()[:, None, None, None]
-        blind, visible, x = blind * s, visible * s, x * s
-    loss = revisible_loss_torch(blind, visible, x, lam, cfg.eta, weight=known)
+        x, windows = sampler.sample(rng, cfg.batch, with_windows=True)
+    # on counts each image's terms are divided by W: count-domain errors grow with W, their noise does
+    # not; 1/W sits between the two so that no octave of W swamps the gradient
+    s = windows.rsqrt()[:, None, None, None] if cfg.input_domain == "count" else 1.0
+    if cfg.objective == "pairs":
+        out = model(x.contiguous(memory_format=torch.channels_last)).contiguous()
+        loss = torch.mean(((out - target) * s) ** 2)
+    else:
+        known = None
+        if cfg.masks_per_step < cfg.cell**2:
+            subset = np.argsort(rng.random((x.shape[0], cfg.cell**2)), axis=1)[:, : cfg.masks_per_step]
+            blind, visible, known = blind_subset_and_visible(model, x, torch.from_numpy(subset.T.copy()).to(x.device),
+                                                             cfg.cell)
+        else:
+            blind, visible = blind_and_visible(model, x, cfg.cell)
+        loss = revisible_loss_torch(blind * s, visible * s, x * s, lam, cfg.eta, weight=known)  # Eq. 12
     opt.zero_grad(set_to_none=True)
     loss.backward()
     opt.step()
