@@ -60,7 +60,7 @@ from spikeref._align_kernels import (
 )
 from spikeref.align_params import DEFAULT_PARAMS, LK_ITERATIONS, REFINES, SMOOTHNESS_SWEEPS, AlignParams, check_step
 from spikeref.align_noise import (
-    ZERO_TEST_BOX, apply_zero_motion, as_image, checked_correlation, level_noise_factors,
+    ZERO_TEST_BOX, apply_zero_motion, as_image, checked_correlation, is_integer, level_noise_factors,
     noise_map, search_thresholds, tile_sums,
 )
 from spikeref.pyramid import PYRAMID_KERNEL, blur_decimate, gaussian_pyramid
@@ -80,10 +80,6 @@ __all__ = [
     "align_tiles",
     "flow_from_tiles",
 ]
-
-
-def _is_int(v) -> bool:
-    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
 
 
 # ----------------------------------------------------------------------------- checks
@@ -251,7 +247,7 @@ def flow_from_tiles(vectors, tile: int, shape) -> np.ndarray:
     ndarray ``(2, h, w)`` float32
         ``(dy, dx)`` per pixel, convention ``alternate[y + dy, x + dx] ≈ reference[y, x]``.
     """
-    if not _is_int(tile) or tile < 2 or tile % 2:
+    if not is_integer(tile) or tile < 2 or tile % 2:
         raise ValueError(f"tile must be an even integer ≥ 2; got {tile!r}")
     try:
         h, w = (int(s) for s in shape)

@@ -24,7 +24,8 @@ from spikeref.noise_level import immerkaer_response
 
 __all__ = [
     "L1_DIFF_VARIANCE", "L2_DIFF_VARIANCE", "MIN_CORRELATION", "LOCAL_NOISE_BOX", "ZERO_TEST_BOX",
-    "as_image", "estimate_noise", "estimate_noise_correlation", "local_noise", "level_noise_factors", "noise_map",
+    "as_image", "is_integer", "estimate_noise", "estimate_noise_correlation", "local_noise", "level_noise_factors",
+    "noise_map",
     "checked_correlation", "tile_sums", "search_thresholds", "zero_motion_test", "apply_zero_motion",
 ]
 
@@ -32,7 +33,8 @@ __all__ = [
 ZERO_TEST_BOX = 9
 
 
-def _is_int(v) -> bool:
+def is_integer(v) -> bool:
+    """Whether ``v`` is a whole number (Python or NumPy integer, not a bool): the alignment modules' check."""
     return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
 
 
@@ -171,7 +173,7 @@ def local_noise(image, box: int = LOCAL_NOISE_BOX) -> np.ndarray:
     img = as_image(image, "image")
     if min(img.shape) < 3:
         raise ValueError(f"image must be at least 3×3 to estimate its noise; got {img.shape}")
-    if not _is_int(box) or box < 1 or box % 2 == 0:
+    if not is_integer(box) or box < 1 or box % 2 == 0:
         raise ValueError(f"box must be an odd integer ≥ 1; got {box!r}")
     lap = np.pad(immerkaer_response(img), 1, mode="edge")
     m = uniform_filter(lap, size=int(box), mode="nearest")
@@ -285,7 +287,7 @@ def zero_motion_test(flow, reference, alternate, z: float, noise=None, correlati
         raise ValueError(f"flow must be a finite (2, {ref.shape[0]}, {ref.shape[1]}) array; got {f.shape}")
     if isinstance(z, (bool, np.bool_)) or not np.isfinite(z) or z < 0:
         raise ValueError(f"z must be a finite number ≥ 0; got {z!r}")
-    if not _is_int(box) or box < 1 or box % 2 == 0:
+    if not is_integer(box) or box < 1 or box % 2 == 0:
         raise ValueError(f"box must be an odd integer ≥ 1; got {box!r}")
     v = noise_map(noise, ref.shape, ref, alt)
     rho = checked_correlation(correlation, ref, alt)

@@ -80,6 +80,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from spikeref.align_noise import is_integer
+
 __all__ = ["REFINES", "LK_ITERATIONS", "SMOOTHNESS_SWEEPS", "AlignParams", "DEFAULT_PARAMS", "check_step"]
 
 #: The sub-pixel refinements of :attr:`AlignParams.refine`.
@@ -90,12 +92,8 @@ LK_ITERATIONS = 2
 SMOOTHNESS_SWEEPS = 30
 
 
-def _is_int(v) -> bool:
-    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
-
-
 def _int_tuple(name: str, value, *, minimum: int, even: bool) -> tuple[int, ...]:
-    if _is_int(value) or isinstance(value, (str, bytes)):
+    if is_integer(value) or isinstance(value, (str, bytes)):
         raise ValueError(f"{name} must be a non-empty tuple of integers; got {value!r}")
     try:
         items = tuple(value)
@@ -104,7 +102,7 @@ def _int_tuple(name: str, value, *, minimum: int, even: bool) -> tuple[int, ...]
     if not items:
         raise ValueError(f"{name} must be a non-empty tuple of integers; got {value!r}")
     for v in items:
-        if not _is_int(v) or v < minimum or (even and v % 2):
+        if not is_integer(v) or v < minimum or (even and v % 2):
             kind = f"even integers ≥ {minimum}" if even else f"integers ≥ {minimum}"
             raise ValueError(f"{name} must hold {kind}; got {value!r}")
     return tuple(int(v) for v in items)
@@ -171,11 +169,11 @@ class AlignParams:
     zero_test: float | None = None
 
     def __post_init__(self):
-        if not _is_int(self.levels) or self.levels < 1:
+        if not is_integer(self.levels) or self.levels < 1:
             raise ValueError(f"levels must be an integer ≥ 1; got {self.levels!r}")
         object.__setattr__(self, "levels", int(self.levels))
         object.__setattr__(self, "tile_by_step", _int_tuple("tile_by_step", self.tile_by_step, minimum=2, even=True))
-        if not _is_int(self.coarse_tile) or self.coarse_tile < 2 or self.coarse_tile % 2:
+        if not is_integer(self.coarse_tile) or self.coarse_tile < 2 or self.coarse_tile % 2:
             raise ValueError(f"coarse_tile must be an even integer ≥ 2; got {self.coarse_tile!r}")
         object.__setattr__(self, "coarse_tile", int(self.coarse_tile))
         radius = _int_tuple("search_radius", self.search_radius, minimum=0, even=False)
@@ -251,7 +249,7 @@ class AlignParams:
             estimate, :func:`~spikeref.align_noise.local_noise`, needs 3×3 pixels).  The pipeline then uses zero flow.
         """
         for name, v in (("height", height), ("width", width)):
-            if not _is_int(v) or v < 1:
+            if not is_integer(v) or v < 1:
                 raise ValueError(f"{name} must be an integer ≥ 1 (plane pixels); got {v!r}")
         n = int(min(height, width))
         if n >= max(self.min_size(step) for step in range(len(self.tile_by_step))):
@@ -274,6 +272,6 @@ DEFAULT_PARAMS = AlignParams()
 
 def check_step(step) -> int:
     """``step`` as an int, or a ``ValueError`` naming it: a pipeline step is an integer ≥ 0."""
-    if not _is_int(step) or step < 0:
+    if not is_integer(step) or step < 0:
         raise ValueError(f"step must be an integer ≥ 0 (the pipeline step l); got {step!r}")
     return int(step)

@@ -12,13 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from spikeref._align_kernels import PYRAMID_KERNEL, blur_decimate_kernel
-from spikeref.align_noise import as_image
+from spikeref.align_noise import as_image, is_integer
 
 __all__ = ["PYRAMID_KERNEL", "blur_decimate", "gaussian_pyramid"]
-
-
-def _is_int(v) -> bool:
-    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
 
 
 def blur_decimate(image: np.ndarray) -> np.ndarray:
@@ -55,7 +51,7 @@ def gaussian_pyramid(image, levels: int) -> list[np.ndarray]:
         arithmetic) then decimated to rows and columns ``0, 2, 4, …`` (size ``ceil(n / 2)``).
     """
     img = as_image(image, "image")
-    if not _is_int(levels) or levels < 1:
+    if not is_integer(levels) or levels < 1:
         raise ValueError(f"levels must be an integer ≥ 1; got {levels!r}")
     pyramid = [img]
     for _ in range(int(levels) - 1):
