@@ -88,10 +88,9 @@ def plot(table: Path, out: Path) -> None:
     def recipe_of(name: str) -> str:
         return "pairs" if "_pairs_" in name else "paper" if "_paper_" in name else "cpu"
 
-    labels = {"paper": ("paper recipe (16 masks, 128² crops)", "s--"), "cpu": ("CPU recipe (1 mask, 64² crops)", "o-"),
+    labels = {"paper": ("paper recipe (16 masks, 128² crops)", "s--"),
+              "cpu": ("blind-spot loss, CPU recipe (1 mask, 64² crops)", "o-"),
               "pairs": ("pairs objective (Noise2Noise, static streams)", "^-.")}
-    if any(recipe_of(r["file"]) == "pairs" for r in rows):
-        labels["cpu"] = ("blind-spot loss, CPU recipe", "o-")
     for recipe, (label, style) in labels.items():
         for w, colour in (("10", "C0"), ("50", "C1")):
             pts = sorted((float(r["train_seconds"]), float(r["psnr_db"])) for r in rows

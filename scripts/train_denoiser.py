@@ -107,10 +107,8 @@ def config(recipe: str, channels: int, steps: int, checkpoint_every: int, accumu
     from spikeref.denoise.train import TrainConfig
 
     more = {} if lam_end is None else {"lam_end": lam_end}
-    if objective != "b2u":
-        more["objective"] = objective
     return TrainConfig(width=channels, steps=steps, checkpoint_every=checkpoint_every, accumulate=accumulate,
-                       **RECIPES[recipe], **more)
+                       objective=objective, **RECIPES[recipe], **more)
 
 
 def probe(streams, steps: int, channels: int) -> dict:
@@ -172,9 +170,8 @@ def main() -> None:
     cfg = config(args.recipe, args.channels, args.steps, checkpoint_every=max(1, min(500, args.steps // 20)),
                  accumulate=args.accumulate, lam_end=args.lam_end, objective=args.objective)
     args.out.mkdir(parents=True, exist_ok=True)
-    output = args.out / (f"b2u_w{args.channels}.npz" if args.recipe == "cpu" else f"b2u_paper_w{args.channels}.npz")
-    if args.objective == "pairs":
-        output = output.with_name(output.name.replace("b2u_", "pairs_"))
+    output = args.out / (f"{args.objective}_w{args.channels}.npz" if args.recipe == "cpu"
+                         else f"{args.objective}_paper_w{args.channels}.npz")
     if args.accumulate == "charge":
         output = output.with_name(output.stem + "_charge.npz")
     command = "python scripts/train_denoiser.py " + " ".join(sys.argv[1:])
