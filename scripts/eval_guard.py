@@ -144,7 +144,7 @@ def main() -> None:
         if not args.no_plain:
             methods["network" + tag] = lambda p, w, s, d=plain: d(p, window=w)
         for radius in args.guard_radius:
-            guarded = Denoiser.load(path, guard_radius=radius)
+            guarded = Denoiser(plain.unet, guard_radius=radius)  # the weights read once
             rtag = tag + ("" if args.guard_radius == [DEFAULT_RADIUS] else f", radius {radius}")
             if args.plane_noise:
                 methods["network + guard, σ of the plane" + rtag] = lambda p, w, s, d=guarded: d(p, window=w)
