@@ -10,7 +10,8 @@ import pytest
 from benchmarks.conftest import best_time
 from spikeref.denoise.blindspot import blindspot_denoise
 from spikeref.denoise._conv_alternatives import conv3x3_im2col, conv3x3_plain
-from spikeref.denoise.unet import UNet, UNetSpec, conv3x3
+from spikeref.denoise.conv import conv3x3
+from spikeref.denoise.unet import UNet, UNetSpec
 
 
 @pytest.mark.parametrize("cin, cout", [(32, 32), (64, 32), (16, 16), (32, 16)])

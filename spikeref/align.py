@@ -1,13 +1,11 @@
 """Motion between frames for progressive warping (§4.2): HDR+ hierarchical tile alignment.
 
-The paper estimates the flow ``F_l`` of Eq. 14–15 with "off-the-shelf" multi-frame alignment
-(supplement §8, "Progressive warping", citing HDR+): a 4-level Gaussian pyramid (scales 1, ½,
-¼, ⅛), matching searched from the coarsest level to the finest, and *larger patches for the
-noisy early steps, progressively smaller later*.  This module is that alignment, after
-Hasinoff et al. 2016, "Burst photography for high dynamic range and low-light imaging on
-mobile cameras", §4 and its supplement, run on one single-channel image per frame on the
-Bayer-plane grid (``h × w = H/2 × W/2``; the pipeline feeds the 2×2 :func:`luma` of the
-denoised planes ``D(I_l)``).
+The paper estimates the flow ``F_l`` of Eq. 14–15 with "off-the-shelf" multi-frame alignment (supplement §8,
+"Progressive warping", citing HDR+): a 4-level Gaussian pyramid (scales 1, ½, ¼, ⅛), matching searched from the
+coarsest level to the finest, and *larger patches for the noisy early steps, progressively smaller later*.  This
+module is that alignment, after Hasinoff et al. 2016, "Burst photography for high dynamic range and low-light
+imaging on mobile cameras", §4 and its supplement, on one single-channel image per frame on the Bayer-plane grid
+(``h × w = H/2 × W/2``; the pipeline feeds the 2×2 :func:`~spikeref.bayer.luma` of the denoised planes ``D(I_l)``).
 
 Flow convention
 ---------------
@@ -21,34 +19,28 @@ window and ``t'`` the alternate's.
 
 Interpretations (the paper names HDR+ and the pyramid, nothing finer)
 ---------------------------------------------------------------------
-Each rule is written out exactly, for a port, in ``docs/spec/align.md`` (the section in brackets).
+Each rule is written out exactly, for a port, in the section of ``docs/spec/align.md`` in brackets.
 
-* **Pyramid** [Pyramid]: level ``k+1`` is level ``k`` blurred by the 5-tap binomial
-  ``[1, 4, 6, 4, 1] / 16`` per axis (σ = 1, edge-replicate borders, float64), then every second row
-  and column kept (size ``ceil(n / 2)``).
-* **Tiles** [Tiles]: size ``T = params.tile_for_step(step)`` at level 0 and ``params.coarse_tile``
-  above, overlapping by half; only tiles wholly inside the level; tile ``i`` is centred at
-  ``i·T/2 + (T − 1)/2`` (pixel-index coordinates).  Frames must hold one tile at every level
-  (:meth:`AlignParams.min_size`, 64 plane pixels with the defaults; the pipeline fits smaller
-  frames with :meth:`AlignParams.fitted`).
-* **Search** [Tile distance, Integer search]: coarse to fine, every integer offset within
-  ``params.search_radius[k]`` of the centre; L2 distance at the coarse levels, L1 at the finest (as
-  HDR+), float64 in raster order; samples outside the image clamp to the edge.  Ties go to the
-  offset nearest the centre, then to the first in raster order, so flat input gives zero flow.
-* **Upsampling** [Upsampling between levels, Choosing among the candidates]: HDR+'s three
-  candidates (the nearest coarse tile and its horizontal and vertical neighbours on the side of the
-  fine tile), doubled; the one with the smallest L1 distance becomes the search centre.
-* **Sub-pixel** [Sub-pixel fit]: HDR+'s least-squares quadratic through the 3×3 L2 distances around
-  the integer vector, kept when ``A`` is positive definite (:data:`PD_TOLERANCE`) and the step is
-  within ±1 pixel (:data:`SLACK`); an exact match stays as it is.
-* **Per-pixel flow** [Per-pixel flow]: the tile vectors, placed at the tile centres, interpolated
-  bilinearly; beyond the outermost centres the nearest centre's value.
-* **Reach**: ``Σ_k r_k 2^k`` plane pixels (57 with the defaults); beyond that the flow is finite
-  but wrong.
+* [Pyramid] level ``k+1`` is level ``k`` blurred by ``[1, 4, 6, 4, 1] / 16`` per axis (edge-replicate,
+  float64), every second row and column kept (``ceil(n / 2)``): :mod:`spikeref.pyramid`.
+* [Tiles] size ``params.tile_for_step(step)`` at level 0, ``params.coarse_tile`` above, overlapping by
+  half, only tiles wholly inside the level, tile ``i`` centred at ``i·T/2 + (T − 1)/2``.  Frames must
+  hold one tile at every level (:meth:`AlignParams.min_size`: 64 plane pixels with the defaults).
+* [Tile distance, Integer search] coarse to fine, every integer offset within
+  ``params.search_radius[k]`` of the centre; L2 at the coarse levels, L1 at the finest (as HDR+),
+  float64, raster order, samples outside the image clamped to the edge; ties go to the offset
+  nearest the centre, then the first in raster order, so flat input gives zero flow.
+* [Upsampling between levels, Choosing among the candidates] HDR+'s three candidates (the nearest
+  coarse tile and its horizontal and vertical neighbours on the fine tile's side), doubled; the one
+  with the smallest L1 distance becomes the search centre.
+* [Sub-pixel fit] HDR+'s least-squares quadratic through the 3×3 L2 distances around the integer
+  vector, kept when ``A`` is positive definite (:data:`PD_TOLERANCE`) and the step is within ±1
+  pixel (:data:`SLACK`); an exact match stays as it is.
+* [Per-pixel flow] the tile vectors at the tile centres, interpolated bilinearly; beyond the
+  outermost centres the nearest centre's value.  The reach is ``Σ_k r_k 2^k`` plane pixels (57).
 
-The options beyond HDR+ (a noise-aware search, Lucas–Kanade refinement with a regularised tile
-field, a per-pixel zero-motion test) are described with their parameters in
-:mod:`spikeref.align_params`.
+The options beyond HDR+ (a noise-aware search, Lucas–Kanade steps with a regularised tile field, a
+per-pixel zero-motion test) are described with their parameters in :mod:`spikeref.align_params`.
 """
 
 from __future__ import annotations
@@ -58,35 +50,18 @@ import numpy as np
 from spikeref._align_kernels import (
     PD_TOLERANCE, SLACK, dense_flow, gradient, lucas_kanade, regularise, search_tiles, subpixel_fit, upsample_tiles,
 )
+from spikeref.bayer import luma
 from spikeref.align_params import DEFAULT_PARAMS, LK_ITERATIONS, REFINES, SMOOTHNESS_SWEEPS, AlignParams, check_step
 from spikeref.align_noise import (
-    ZERO_TEST_BOX, apply_zero_motion, as_image, checked_correlation, is_integer, level_noise_factors,
-    noise_map, search_thresholds, tile_sums,
+    ZERO_TEST_BOX, as_image, checked_correlation, is_integer, level_noise_factors, noise_map, search_thresholds,
+    tile_sums, zero_motion_test,
 )
 from spikeref.pyramid import PYRAMID_KERNEL, blur_decimate, gaussian_pyramid
 
 __all__ = [
-    "PYRAMID_KERNEL",
-    "PD_TOLERANCE",
-    "SLACK",
-    "REFINES",
-    "LK_ITERATIONS",
-    "SMOOTHNESS_SWEEPS",
-    "AlignParams",
-    "DEFAULT_PARAMS",
-    "luma",
-    "gaussian_pyramid",
-    "align",
-    "align_tiles",
-    "flow_from_tiles",
+    "align", "align_tiles", "flow_from_tiles", "luma", "gaussian_pyramid", "AlignParams", "DEFAULT_PARAMS",
+    "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "REFINES", "LK_ITERATIONS", "SMOOTHNESS_SWEEPS",
 ]
-
-
-# ----------------------------------------------------------------------------- checks
-def _check_params(params) -> AlignParams:
-    if not isinstance(params, AlignParams):
-        raise TypeError(f"params must be an AlignParams; got {type(params).__name__}")
-    return params
 
 
 def _tile_count(size: int, tile: int) -> int:
@@ -94,31 +69,6 @@ def _tile_count(size: int, tile: int) -> int:
 
 
 # ----------------------------------------------------------------------------- public
-def luma(planes) -> np.ndarray:
-    """The 2×2 luma on the plane grid: the mean of the four Bayer planes.
-
-    Parameters
-    ----------
-    planes : ndarray ``(..., 4, h, w)``, real
-        Bayer planes (R, G1, G2, B in CFA-position order, ``docs/spec/README.md``), e.g. the denoised
-        firing rates ``D(I_l)``.
-
-    Returns
-    -------
-    ndarray ``(..., h, w)`` float32
-        ``(P_0 + P_1 + P_2 + P_3) / 4`` (computed in float64): the mean of each 2×2 Bayer
-        cell, the image :func:`align` works on.
-    """
-    arr = np.asarray(planes)
-    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
-        raise TypeError(f"planes must be a real numeric array; got dtype {arr.dtype}")
-    if arr.ndim < 3 or arr.shape[-3] != 4:
-        raise ValueError(f"planes must have shape (..., 4, h, w) (four Bayer planes); got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError("planes must be finite (no NaN or inf)")
-    return arr.mean(axis=-3, dtype=np.float64).astype(np.float32)
-
-
 def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PARAMS, noise=None,
                 correlation=None) -> tuple[np.ndarray, int]:
     """Tile vectors of the finest level (HDR+ §4): the motion of each tile of ``reference`` in ``alternate``.
@@ -157,13 +107,8 @@ def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAU
         Non-2-D, non-finite or mismatched input, a bad ``step``, or a frame smaller than
         ``params.min_size(step)`` (the message gives the minimum).
     """
-    vectors, tile, _ = _align_tiles(reference, alternate, step, params, noise, correlation)
-    return vectors, tile
-
-
-def _align_tiles(reference, alternate, step, params, noise, correlation):
-    """:func:`align_tiles`, and the checked level-0 noise map (float64) when one was made, else None."""
-    params = _check_params(params)
+    if not isinstance(params, AlignParams):
+        raise TypeError(f"params must be an AlignParams; got {type(params).__name__}")
     step = check_step(step)
     ref = as_image(reference, "reference")
     alt = as_image(alternate, "alternate")
@@ -180,18 +125,15 @@ def _align_tiles(reference, alternate, step, params, noise, correlation):
     alt_pyr = gaussian_pyramid(alt, params.levels)
     noise_pyr = factors = noise0 = None
     rho = 0.0
-    if params.prefer_centre > 0 or (params.subpixel and params.smoothness > 0):
-        noise0 = noise_map(noise, ref.shape, ref, alt)
-    elif noise is not None:  # validated even when unused
-        noise_map(noise, ref.shape, ref, alt)
+    if params.prefer_centre > 0 or (params.subpixel and params.smoothness > 0) or noise is not None:
+        noise0 = noise_map(noise, ref.shape, ref, alt)  # a given map is checked even when unused
+    if params.prefer_centre > 0 or correlation is not None:
+        rho = checked_correlation(correlation, ref, alt)  # 〃
     if params.prefer_centre > 0:
         noise_pyr = [noise0]
         for _ in range(params.levels - 1):  # the local mean variance under each level's pixels
             noise_pyr.append(blur_decimate(noise_pyr[-1]).astype(np.float64))
         factors = level_noise_factors(params.levels)
-        rho = checked_correlation(correlation, ref, alt)
-    elif correlation is not None:  # validated even when unused
-        checked_correlation(correlation, ref, alt)
     vectors = None  # integer vectors of the previous (coarser) level
     for k in range(params.levels - 1, -1, -1):
         t = tile if k == 0 else params.coarse_tile
@@ -225,7 +167,7 @@ def _align_tiles(reference, alternate, step, params, noise, correlation):
         subpixel_fit(ref_pyr[0], alt_pyr[0], tile, vectors, out)
     else:
         out[...] = vectors
-    return out, tile, noise0
+    return out, tile
 
 
 def flow_from_tiles(vectors, tile: int, shape) -> np.ndarray:
@@ -278,19 +220,8 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
 
     Parameters
     ----------
-    reference, alternate : ndarray ``(h, w)`` float32 or float64
-        Finite single-channel images on the plane grid, same shape,
-        ``min(h, w) ≥ params.min_size(step)`` (64 with the defaults).
-    step : int
-        Pipeline step ``l`` (≥ 0): the finest tile size is ``params.tile_for_step(step)``.
-    params : AlignParams
-        Pyramid, tile and search settings.
-    noise : float or ndarray ``(h, w)``, optional
-        Per-pixel noise variance of the images, for ``params.prefer_centre > 0``
-        (:func:`align_tiles`).
-    correlation : float, optional
-        Correlation of the images' noise at the same pixel, for ``params.prefer_centre > 0``
-        (:func:`align_tiles`).
+    reference, alternate, step, params, noise, correlation
+        As in :func:`align_tiles`.
     raw : (ndarray, ndarray), optional
         The frames :func:`zero_motion_test` compares when ``params.zero_test`` is set (``noise`` and
         ``correlation`` describe them); default ``(reference, alternate)``.  The pipeline gives the
@@ -302,19 +233,16 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
         ``(dy, dx)`` in plane pixels with ``alternate[y + dy, x + dx] ≈ reference[y, x]`` —
         ``F(x, t, t')`` of Eq. 14–15 for reference window ``t`` and alternate window ``t'``.
     """
-    vectors, tile, noise0 = _align_tiles(reference, alternate, step, params, noise, correlation)
+    vectors, tile = align_tiles(reference, alternate, step, params, noise, correlation)
     h, w = np.shape(reference)
     out = np.empty((2, h, w), np.float32)
     dense_flow(vectors, tile, out)
     if params.zero_test is not None:
         r_img, a_img = (reference, alternate) if raw is None else raw
-        r_img, a_img = as_image(r_img, "raw reference"), as_image(a_img, "raw alternate")
-        if r_img.shape != (h, w) or a_img.shape != (h, w):
-            raise ValueError(f"raw must be two images of the reference's shape {(h, w)}; got {r_img.shape} and "
-                             f"{a_img.shape}")
-        v = noise0 if noise is not None and noise0 is not None else noise_map(noise, (h, w), r_img, a_img)
-        rho = checked_correlation(correlation, r_img, a_img)
-        out = apply_zero_motion(out, r_img, a_img, params.zero_test, v, rho, ZERO_TEST_BOX)
+        if np.shape(r_img) != (h, w) or np.shape(a_img) != (h, w):
+            raise ValueError(f"raw must be two images of the reference's shape {(h, w)}; got {np.shape(r_img)} and "
+                             f"{np.shape(a_img)}")
+        out = zero_motion_test(out, r_img, a_img, params.zero_test, noise, correlation, ZERO_TEST_BOX)
     return out
 
 

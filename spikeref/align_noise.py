@@ -18,6 +18,7 @@ The rules are written out in ``docs/spec/align.md`` and in :mod:`spikeref.oracle
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import uniform_filter
 
 from spikeref._align_kernels import PYRAMID_KERNEL, integral_image, zero_test_terms
 from spikeref.noise_level import immerkaer_response
@@ -168,8 +169,6 @@ def local_noise(image, box: int = LOCAL_NOISE_BOX) -> np.ndarray:
     -------
     ndarray ``(h, w)`` float64
     """
-    from scipy.ndimage import uniform_filter
-
     img = as_image(image, "image")
     if min(img.shape) < 3:
         raise ValueError(f"image must be at least 3×3 to estimate its noise; got {img.shape}")
@@ -297,8 +296,6 @@ def zero_motion_test(flow, reference, alternate, z: float, noise=None, correlati
 def apply_zero_motion(flow: np.ndarray, ref: np.ndarray, alt: np.ndarray, z: float, noise: np.ndarray, rho: float,
                  box: int) -> np.ndarray:
     """:func:`zero_motion_test` on checked input (float32 images and flow, a float64 noise map); ``flow`` is changed."""
-    from scipy.ndimage import uniform_filter
-
     d = np.empty(ref.shape, np.float64)
     var = np.empty(ref.shape, np.float64)
     zero_test_terms(ref, alt, flow, noise, rho, d, var)

@@ -1,31 +1,17 @@
 """Classic spike-camera reconstructions used as baselines (paper §5.2, Table 1).
 
-* **TFP** — texture from playback (Zhu et al. 2019): the firing rate over a
-  window, i.e. Eq. 4 with ``M_c = 1``.
-* **TFI** — texture from inter-spike intervals (Zhu et al. 2019): the inverse
-  of the interval between the two spikes around time ``t``.
-* **TFSTP** — texture from short-term plasticity (Zheng et al. 2023): a
-  Tsodyks–Markram synapse per pixel, driven by its spikes; the firing rate is
-  read back from the synapse's steady-state relations.
+* **TFP** — texture from playback (Zhu et al. 2019): the firing rate over a window, i.e. Eq. 4 with ``M_c = 1``.
+* **TFI** — texture from inter-spike intervals (Zhu et al. 2019): the inverse of the interval between the two
+  spikes around time ``t``.
+* **TFSTP** — texture from short-term plasticity (Zheng et al. 2023): a Tsodyks–Markram synapse per pixel, driven
+  by its spikes; the firing rate is read back from the synapse's steady-state relations.
 
-All three are defined for monochrome streams and return **linear rates in
-spikes per readout** (``[0, 1]``), so they can be compared with each other
-and with the method.  For a Bayer stream each pixel is processed on its own
-(so per Bayer plane) and the result is demosaicked with Ψ
-(:func:`bayer_baseline`), as the paper does in Table 1.
+All three are defined for monochrome streams and return **linear rates in spikes per readout** (``[0, 1]``), so
+they can be compared with each other and with the method.  For a Bayer stream each pixel is processed on its own
+(so per Bayer plane) and the result is demosaicked with Ψ (:func:`bayer_baseline`), as the paper does in Table 1.
 
-Compatibility with SpikeCV (``spkProc/reconstruction``), stated so results
-can be compared with that library:
-
-* SpikeCV's TFP frame at ``t`` with half window ``h`` is
-  ``255 · tfp(spikes, 2h + 1, start=t - h, count=1)``.
-* SpikeCV's TFI image is ``255 / interval`` cast to ``uint8``, where the
-  interval at ``t`` is the one that ends at the first spike at or after ``t``,
-  and 257 where no spike precedes it or none follows: ``255 · tfi`` here.
-* SpikeCV's TFSTP image is the *sum* of the two rate estimates, min–max
-  normalised and histogram-equalised for display; here it is their *mean*,
-  kept linear.  SpikeCV's code writes ``F`` for ``f`` in the facilitation
-  estimate; the paper's relation (with ``f``) is used here.
+How each one compares with SpikeCV's (``spkProc/reconstruction``) is in ``docs/spec/baselines.md``, "Comparing
+with SpikeCV".
 """
 
 from __future__ import annotations
@@ -41,17 +27,8 @@ from spikeref.bayer import demosaic_bilinear
 from spikeref.stream import SpikeStream, as_stream
 
 __all__ = [
-    "baseline_frames",
-    "tfp",
-    "tfi",
-    "tfstp",
-    "STPParams",
-    "TFSTPState",
-    "TFI_BOUNDARY_INTERVAL",
-    "TFI_MAX_INTERVAL",
-    "bayer_baseline",
-    "streamed_baseline",
-    "BASELINES",
+    "baseline_frames", "tfp", "tfi", "tfstp", "STPParams", "TFSTPState", "TFI_BOUNDARY_INTERVAL", "TFI_MAX_INTERVAL",
+    "bayer_baseline", "streamed_baseline", "BASELINES",
 ]
 
 BASELINES = ("tfp", "tfi", "tfstp")
@@ -110,16 +87,15 @@ def tfi(spikes, times=None) -> np.ndarray:
 
     Returns
     -------
-    ndarray ``(len(times), H, W) float32``: spikes per readout, ``1 / interval``
-    where the interval (in readouts) is the one ending at the first spike at or
-    after ``t``.  Where no spike precedes that spike, none follows ``t``, or the
-    interval exceeds :data:`TFI_MAX_INTERVAL`, the interval is 257 (SpikeCV's
+    ndarray ``(len(times), H, W) float32``: spikes per readout, ``1 / interval`` where the interval (in
+    readouts) is the one ending at the first spike at or after ``t``.  Where no spike precedes that spike,
+    none follows ``t``, or the interval exceeds :data:`TFI_MAX_INTERVAL`, the interval is 257 (SpikeCV's
     boundary value), i.e. a rate of ``1/257``.  Never NaN or inf.
 
     Notes
     -----
-    Only planes ``[min(times) − 256, max(times) + 257)`` are read, so a packed
-    stream can be processed in chunks with identical results.
+    Only planes ``[min(times) − 256, max(times) + 257)`` are read, so a packed stream can be processed in
+    chunks with identical results.
     """
     stream = as_stream(spikes)
     t = _times_array(times, len(stream))
@@ -167,12 +143,11 @@ class STPParams:
 class TFSTPState:
     """Per-pixel synapse state, float64, for chunked (causal) processing.
 
-    ``R`` and ``u`` are the synapse variables; ``decay_D`` and ``decay_F`` hold
-    ``exp(−Δ/D)`` and ``exp(−Δ/F)`` for ``Δ`` = (planes processed) − (index of the last
-    spike + 1), i.e. the factors the next spike will use one plane later; ``rate`` caches the
-    read-out (negative: stale).  Starts at ``R = 1``, ``u = u0``, no spike (SpikeCV's initial
-    state).  TFSTP is causal, so a stream processed chunk by chunk with one state gives the
-    same frames as one pass.
+    ``R`` and ``u`` are the synapse variables; ``decay_D`` and ``decay_F`` hold ``exp(−Δ/D)`` and ``exp(−Δ/F)``
+    for ``Δ`` = (planes processed) − (index of the last spike + 1), i.e. the factors the next spike will use
+    one plane later; ``rate`` caches the read-out (negative: stale).  Starts at ``R = 1``, ``u = u0``, no
+    spike (SpikeCV's initial state).  TFSTP is causal, so a stream processed chunk by chunk with one state
+    gives the same frames as one pass.
     """
 
     def __init__(self, height: int, width: int, params: STPParams = STPParams()):
@@ -188,15 +163,14 @@ class TFSTPState:
 def tfstp(spikes, times=None, params: STPParams = STPParams(), state: TFSTPState | None = None) -> np.ndarray:
     """TFSTP: firing rate read from a short-term-plasticity synapse per pixel (Zheng et al. 2023).
 
-    At every spike (interval ``Δt`` readouts since the previous one, or since
-    the start of the stream for the first) the synapse is updated with the
-    *previous* ``u``::
+    At every spike (interval ``Δt`` readouts since the previous one, or since the start of the stream for
+    the first) the synapse is updated with the *previous* ``u``::
 
         R ← 1 − (1 − R (1 − u)) · exp(−Δt / D)
         u ← u0 + (u + f (1 − u) − u0) · exp(−Δt / F)
 
-    and at an output time the rate is the mean of the two estimates ``1/Δ``
-    obtained by inverting these relations at their fixed point.
+    and at an output time the rate is the mean of the two estimates ``1/Δ`` obtained by inverting these
+    relations at their fixed point.
 
     Parameters
     ----------
@@ -206,13 +180,12 @@ def tfstp(spikes, times=None, params: STPParams = STPParams(), state: TFSTPState
     params : STPParams
         ``u0 = 0.15, D = 1, F = 10, f = 0.15`` (SpikeCV's defaults; time in readouts).
     state : TFSTPState, optional
-        Continue from this state (for chunked processing); it is updated in
-        place.  Without it the synapses start at rest at plane 0.
+        Continue from this state (for chunked processing); it is updated in place.  Without it the synapses
+        start at rest at plane 0.
 
     Returns
     -------
-    ndarray ``(len(times), H, W) float32`` in ``[0, 1]`` (spikes per readout);
-    0 where a pixel has not fired yet.
+    ndarray ``(len(times), H, W) float32`` in ``[0, 1]`` (spikes per readout); 0 where a pixel has not fired.
     """
     stream = as_stream(spikes)
     if state is None:
@@ -240,9 +213,8 @@ def streamed_baseline(stream: SpikeStream, method: str, every: int, finish: Call
                       chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
     """Yield ``(index, frame)`` of TFI or TFSTP at planes ``0, every, 2·every, …``, chunk by chunk.
 
-    Output frame ``k`` is the reconstruction at plane ``k · every``; ``finish``
-    is applied to each chunk (e.g. Ψ for colour).  Memory is bounded by the
-    chunk, whatever the stream's length; results equal one pass over the stream.
+    Output frame ``k`` is the reconstruction at plane ``k · every``; ``finish`` is applied to each chunk (e.g.
+    Ψ for colour).  Memory is bounded by the chunk, whatever the stream's length; results equal one pass.
     """
     if method not in ("tfi", "tfstp"):
         raise ValueError(f"streamed_baseline runs 'tfi' or 'tfstp'; got {method!r}")

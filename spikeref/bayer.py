@@ -1,4 +1,4 @@
-"""Bayer colour filter arrays: the mosaic <-> four planes split, and Ψ.
+"""Bayer colour filter arrays: the mosaic <-> four planes split, their 2×2 luma, and Ψ.
 
 The paper (§4.1) splits the mosaicked chromatic frame into its four Bayer
 channels of size ``H/2 × W/2`` before denoising, and recombines them after;
@@ -36,6 +36,7 @@ __all__ = [
     "cfa_channel_map",
     "bayer_planes",
     "bayer_mosaic",
+    "luma",
     "demosaic_bilinear",
     "check_mosaic",
     "reflect_index",
@@ -136,6 +137,31 @@ def bayer_mosaic(planes: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     for p in range(4):
         out[..., p // 2 :: 2, p % 2 :: 2] = planes[..., p, :, :]
     return out
+
+
+def luma(planes) -> np.ndarray:
+    """The 2×2 luma on the plane grid: the mean of the four Bayer planes.
+
+    Parameters
+    ----------
+    planes : ndarray ``(..., 4, h, w)``, real
+        Bayer planes in CFA-position order (``docs/spec/README.md``), e.g. the denoised firing
+        rates ``D(I_l)``.
+
+    Returns
+    -------
+    ndarray ``(..., h, w)`` float32
+        ``(P_0 + P_1 + P_2 + P_3) / 4`` (computed in float64): the mean of each 2×2 Bayer
+        cell, the image :func:`spikeref.align.align` works on.
+    """
+    arr = np.asarray(planes)
+    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise TypeError(f"planes must be a real numeric array; got dtype {arr.dtype}")
+    if arr.ndim < 3 or arr.shape[-3] != 4:
+        raise ValueError(f"planes must have shape (..., 4, h, w) (four Bayer planes); got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("planes must be finite (no NaN or inf)")
+    return arr.mean(axis=-3, dtype=np.float64).astype(np.float32)
 
 
 @njit

@@ -25,6 +25,7 @@ edges) are clipped to 0, since radiance is not negative.  The literal oracle is
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import correlate
 from spikeref.bayer import cfa_channel_map, check_mosaic, demosaic_bilinear, validate_cfa
 
 
@@ -46,8 +47,6 @@ MHC_KERNELS["at_g_col"] = MHC_KERNELS["at_g_row"].T.copy()
 
 
 def _filters(image: np.ndarray) -> dict:
-    from scipy.ndimage import correlate
-
     return {name: correlate(image, k, mode="mirror") for name, k in MHC_KERNELS.items()}
 
 

@@ -74,17 +74,20 @@ the ``2(L − l)h + 1`` windows that later frames still need; windows are read f
 from __future__ import annotations
 
 import copy
+import dataclasses
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
 import numpy as np
+from scipy.ndimage import gaussian_filter
 
 from spikeref.accumulate import window_counts
-from spikeref.align import AlignParams, align, luma
+from spikeref.align import AlignParams, align
 from spikeref.align_noise import estimate_noise, estimate_noise_correlation, local_noise
-from spikeref.bayer import bayer_mosaic, bayer_planes
+from spikeref.bayer import bayer_mosaic, bayer_planes, luma
 from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, window_charge
 from spikeref.compose import composed_warp, path_table
 from spikeref.demosaic import DEMOSAICS, demosaic
@@ -320,8 +323,6 @@ def flow_luma(planes: np.ndarray, sigma: float = FLOW_SMOOTHING_SIGMA) -> np.nda
     -------
     ndarray ``(h, w) float32``
     """
-    from scipy.ndimage import gaussian_filter
-
     if not (np.isfinite(sigma) and sigma >= 0):
         raise ValueError(f"sigma must be a number of plane pixels ≥ 0; got {sigma!r}")
     y = luma(planes)
@@ -787,9 +788,6 @@ def _fit_align_size(h: int, w: int, p: ReconstructParams) -> ReconstructParams:
     :meth:`AlignParams.fitted` (fewer levels, smaller finest tiles) or, when not even one level
     fits, not at all (``align=False``: zero flow), and a one-line ``UserWarning`` says so.
     """
-    import dataclasses
-    import warnings
-
     a = p.align_params
     need = max(a.min_size(step) for step in range(p.L))
     if min(h, w) >= need:

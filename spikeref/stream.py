@@ -11,6 +11,7 @@ instantly and is read one window at a time.  :func:`read_dat`, :func:`load_spike
 
 from __future__ import annotations
 
+import mmap
 from pathlib import Path
 from typing import Iterator
 
@@ -190,7 +191,6 @@ class SpikeStream:
         mm = getattr(packed, "_mmap", None)
         if mm is None or not hasattr(mm, "madvise"):
             return
-        import mmap
 
         base = np.frombuffer(mm, dtype=np.uint8).ctypes.data
         lo = packed[start:].ctypes.data - base

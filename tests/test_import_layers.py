@@ -201,3 +201,40 @@ def test_the_layer_test_sees_a_wrong_import(tmp_path):
     assert ("spikeref.denoise.blindspot", [], 2, False) in found
     assert _circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a -> b -> c -> a"]
     assert _circles({"a": {"b"}, "b": set()}) == []
+
+
+#: The optional extras (``pyproject.toml``): the only imports a library module may defer into a function.
+OPTIONAL_EXTRAS = ("torch", "dask", "distributed", "bm3d", "skimage", "matplotlib")
+
+
+def _deferred_imports(path: Path):
+    """``(top-level package, line)`` of every import made inside a function, other than the package's own."""
+    tree = ast.parse(path.read_text())
+    for fn in ast.walk(tree):
+        if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            for node in ast.walk(fn):
+                if isinstance(node, ast.ImportFrom) and not node.level:
+                    names = [node.module or ""]
+                elif isinstance(node, ast.Import):
+                    names = [a.name for a in node.names]
+                else:
+                    continue
+                for name in names:
+                    top = name.split(".")[0]
+                    if top != "spikeref":
+                        yield top, node.lineno
+
+
+@pytest.mark.parametrize("module", sorted(m for m in MODULES if _layer(m) not in (5, "oracle")))
+def test_library_modules_defer_only_optional_extras(module):
+    # A runtime dependency (NumPy, SciPy, Numba, imageio, OpenEXR, tqdm) is imported at the top, so that a
+    # missing one fails on import and the module's dependencies are read in one place.
+    wrong = sorted({f"line {line}: {module} imports {top} inside a function"
+                    for top, line in _deferred_imports(MODULES[module]) if top not in OPTIONAL_EXTRAS})
+    assert not wrong, "\n".join(wrong)
+
+
+def test_the_deferred_import_walk_sees_one(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("import numpy\ndef f():\n    from scipy.ndimage import gaussian_filter\n    import torch.nn\n")
+    assert sorted(_deferred_imports(bad)) == [("scipy", 3), ("torch", 4)]

@@ -9,7 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from spikeref.denoise._conv_alternatives import conv3x3_im2col, conv3x3_plain
-from spikeref.denoise.unet import UNet, UNetSpec, conv3x3, layer_shapes
+from spikeref.denoise.conv import conv3x3
+from spikeref.denoise.unet import UNet, UNetSpec, layer_shapes
 from spikeref.oracles.unet import conv3x3_oracle, unet_forward_oracle
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden" / "unet_forward.npz"

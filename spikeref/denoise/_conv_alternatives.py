@@ -1,4 +1,4 @@
-"""Two convolutions the network does not use: the measured alternatives to :func:`spikeref.denoise.unet.conv3x3`.
+"""Two convolutions the network does not use: the measured alternatives to :func:`spikeref.denoise.conv.conv3x3`.
 
 ``conv3x3_im2col`` (im2col + one BLAS matrix product per strip of rows, channel-last) was the
 network's convolution until 2026-11-23; ``conv3x3_plain`` (one ``einsum`` per tap, no BLAS) is
@@ -26,7 +26,7 @@ def _leaky(x: np.ndarray, slope: float) -> None:
 def conv3x3_im2col(x: np.ndarray, wmat: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
     """3×3 convolution, zero padding 1, by im2col + BLAS in strips of rows (channel-last).
 
-    The measured alternative to :func:`spikeref.denoise.unet.conv3x3` (``benchmarks/test_speed_unet.py``); the same
+    The measured alternative to :func:`spikeref.denoise.conv.conv3x3` (``benchmarks/test_speed_unet.py``); the same
     values to float32 rounding, but BLAS sums in an order that depends on its thread count.
 
     Parameters
@@ -70,7 +70,7 @@ def conv3x3_im2col(x: np.ndarray, wmat: np.ndarray, bias: np.ndarray, slope: flo
 
 
 def conv3x3_plain(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
-    """Plain NumPy reference of :func:`spikeref.denoise.unet.conv3x3`: channel-first, one ``einsum`` per tap, no BLAS.
+    """Plain NumPy reference of :func:`spikeref.denoise.conv.conv3x3`: channel-first, one ``einsum`` per tap, no BLAS.
 
     ``x`` is ``(N, Cin, H, W)``, ``weight`` PyTorch's ``(Cout, Cin, 3, 3)``; returns
     ``(N, Cout, H, W)``.  Slow and obviously correct; the baseline of the speed ratio.

@@ -5,7 +5,7 @@ nine taps of each input channel summed as one expression over rows held in the L
 multiply-adds only, no reassociation, so the result does not depend on the thread count), 2×2
 max-pooling and the nearest upsampling fused with the skip concatenation.  Activations are
 channel-first with a zero border of one pixel; every kernel writes interiors only.  Nothing here checks
-its arguments: :func:`spikeref.denoise.unet.conv3x3` and :class:`~spikeref.denoise.unet.UNet` do.
+its arguments: :func:`spikeref.denoise.conv.conv3x3` and :class:`~spikeref.denoise.unet.UNet` do.
 """
 
 from __future__ import annotations

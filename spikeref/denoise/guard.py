@@ -70,6 +70,8 @@ The literal oracle is :func:`spikeref.oracles.guard.sure_blend_oracle`.
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import uniform_filter
+from scipy.special import ndtri
 
 from spikeref.charge import ACCUMULATE
 from spikeref.denoise.blindspot import check_image
@@ -96,8 +98,6 @@ NOISE_WINDOW = 10
 
 def _truncated_halfnormal_mean(q: float) -> float:
     """Mean of ``|Z|``, ``Z ~ N(0, 1)``, over its smallest fraction ``q``: ``√(2/π)(1 − e^{−u²/2})/q``."""
-    from scipy.special import ndtri
-
     u = float(ndtri((1.0 + q) / 2.0))
     return float(np.sqrt(2.0 / np.pi) * (1.0 - np.exp(-u * u / 2.0)) / q)
 
@@ -152,8 +152,6 @@ def probe_step(sigma) -> np.ndarray:
 
 
 def _box_mean(a: np.ndarray, radius: int) -> np.ndarray:
-    from scipy.ndimage import uniform_filter
-
     size = [1] * (a.ndim - 2) + [2 * radius + 1, 2 * radius + 1]
     return uniform_filter(a, size=size, mode="reflect")
 

@@ -57,6 +57,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter
 
 __all__ = ["PEERS", "PeerDenoiser", "peer_available"]
 
@@ -244,8 +245,6 @@ class PeerDenoiser:
         out = np.empty(flat.shape, dtype=np.float32)
         for i, plane in enumerate(flat):
             if self.method == "gaussian":
-                from scipy.ndimage import gaussian_filter
-
                 out[i] = gaussian_filter(plane, self.gaussian_sigma, mode="reflect")
                 continue
             if plane.size == 0 or plane.min() == plane.max():   # flat: nothing to denoise, σ = 0

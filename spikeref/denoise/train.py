@@ -60,6 +60,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 import torch
 from torch.nn import functional as F
 
@@ -515,8 +516,6 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         ``steps``, ``final_loss`` (mean of the last 5 % of steps), ``seconds``, ``losses``
         (one mean per 1 % of the run).
     """
-    from tqdm import tqdm
-
     cfg = config or TrainConfig()
     output = Path(output)
     checkpoint = Path(checkpoint) if checkpoint is not None else output.with_name(output.name + ".ckpt")

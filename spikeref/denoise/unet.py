@@ -21,16 +21,9 @@ four Bayer planes.
 Any input size is accepted: the image is reflect-padded at the bottom and right to a multiple
 of ``2^depth`` (32) and the output cropped back.
 
-Convolution is a direct Numba kernel in channel-first layout (:func:`conv3x3`): one job per
-output row and group of four output channels, the nine taps of each input channel summed as
-one expression over a row held in the L1 cache, which LLVM turns into fused multiply-adds over
-eight pixels at a time.  Every output value is computed by one job in a fixed order, so the
-result does not depend on the number of threads.  The measured alternatives (im2col + BLAS,
-the network's convolution until 2026-11-23, and one ``einsum`` per tap) are in
-:mod:`spikeref.denoise._conv_alternatives`, for ``benchmarks/test_speed_unet.py``; the network
-never calls them.  The kernels, and the per-thread pool of activation buffers a pass
-reuses from the pass before (:func:`release_buffers` frees it), are in
-:mod:`spikeref.denoise._unet_kernels`.
+Each convolution is :func:`spikeref.denoise.conv.conv3x3`'s direct Numba kernel on zero-bordered,
+channel-first activations; a pass takes its buffers from a per-thread pool that the pass before filled
+(:func:`release_buffers` frees it), in :mod:`spikeref.denoise._unet_kernels`.
 
 The weights file (``.npz``, PyTorch's layout, with a JSON ``meta`` saying how the weights were made)
 is read and written by :mod:`spikeref.io.unet_weights`.
@@ -43,12 +36,11 @@ from pathlib import Path
 
 import numpy as np
 
-from spikeref.denoise._unet_kernels import (
-    buffers, conv3x3_direct, maxpool_into, padded_empty, release_buffers, upsample_concat_into,
-)
+from spikeref.denoise._unet_kernels import buffers, maxpool_into, release_buffers, upsample_concat_into
+from spikeref.denoise.conv import conv_padded
 from spikeref.io.unet_weights import WEIGHTS_FORMAT, read_unet_weights, write_unet_weights
 
-__all__ = ["UNetSpec", "UNet", "layer_shapes", "conv3x3", "release_buffers", "WEIGHTS_FORMAT"]
+__all__ = ["UNetSpec", "UNet", "layer_shapes", "release_buffers", "WEIGHTS_FORMAT"]
 
 
 @dataclass(frozen=True)
@@ -101,64 +93,6 @@ def layer_shapes(spec: UNetSpec) -> dict[str, tuple[int, int]]:
     shapes["tail1"] = (c, c // 2)
     shapes["tail2"] = (c // 2, 1)
     return shapes
-
-
-# ----------------------------------------------------------------------------- convolution
-
-
-def _conv_padded(xp: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None,
-                 out: np.ndarray | None = None) -> np.ndarray:
-    """The direct kernel on a zero-bordered ``xp``, into ``out`` (a new zero-bordered buffer by default)."""
-    n, _, hp, wp = xp.shape
-    out = padded_empty(n, weight.shape[0], hp - 2, wp - 2) if out is None else out
-    conv3x3_direct(xp, weight, bias, np.float32(0.0 if slope is None else slope), slope is not None, out)
-    return out
-
-
-def conv3x3(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None) -> np.ndarray:
-    """3×3 convolution, zero padding 1, by a direct Numba kernel (channel-first).
-
-    Parameters
-    ----------
-    x : ndarray ``(N, Cin, H, W)`` float
-        Input (cast to float32).
-    weight : ndarray ``(Cout, Cin, 3, 3)`` float
-        PyTorch's ``Conv2d`` layout.
-    bias : ndarray ``(Cout,)`` float
-    slope : float or None
-        LeakyReLU slope applied to the output, or ``None`` for a linear layer.
-
-    Returns
-    -------
-    ndarray ``(N, Cout, H, W) float32``
-        ``out[n, o, y, x] = b[o] + Σ_{c,dy,dx} w[o, c, dy, dx] · x[n, c, y+dy−1, x+dx−1]``
-        (cross-correlation, as PyTorch's ``Conv2d``), summed in float32 (a product and a sum
-        may be fused into one FMA where the CPU has it); the same values whatever the number
-        of threads.
-    """
-    x = np.asarray(x)
-    weight = np.asarray(weight)
-    bias = np.asarray(bias)
-    if x.ndim != 4 or 0 in x.shape:
-        raise ValueError(f"x must be a non-empty (N, Cin, H, W) array; got shape {x.shape}")
-    if weight.ndim != 4 or weight.shape[1:] != (x.shape[1], 3, 3) or weight.shape[0] < 1:
-        raise ValueError(f"weight must have shape (Cout, {x.shape[1]}, 3, 3); got {weight.shape}")
-    if bias.shape != (weight.shape[0],):
-        raise ValueError(f"bias must have shape ({weight.shape[0]},); got {bias.shape}")
-    for name, a in (("x", x), ("weight", weight), ("bias", bias)):
-        if not np.issubdtype(a.dtype, np.floating):
-            raise TypeError(f"{name} must be floating point; got {a.dtype}")
-    if slope is not None:
-        if isinstance(slope, bool) or not isinstance(slope, (int, float, np.integer, np.floating)):
-            raise TypeError(f"slope must be None or a number; got {slope!r}")
-        if not (np.isfinite(slope) and 0 <= slope < 1):
-            raise ValueError(f"slope must be None or lie in [0, 1); got {slope!r}")
-    n, cin, h, w = x.shape
-    xp = padded_empty(n, cin, h, w)
-    xp[:, :, 1:-1, 1:-1] = x
-    out = _conv_padded(xp, np.ascontiguousarray(weight, dtype=np.float32),
-                       np.ascontiguousarray(bias, dtype=np.float32), slope)
-    return np.ascontiguousarray(out[:, :, 1:-1, 1:-1])
 
 
 # ----------------------------------------------------------------------------- the network
@@ -282,7 +216,7 @@ class UNet:
         def conv(name, t, act=True):
             """The layer on ``t``, whose buffer no later layer reads: it is released."""
             weight, bias = params[f"{name}.weight"], params[f"{name}.bias"]
-            out = _conv_padded(t, weight, bias, slope if act else None,
+            out = conv_padded(t, weight, bias, slope if act else None,
                                pool.take(t.shape[0], weight.shape[0], t.shape[2] - 2, t.shape[3] - 2))
             pool.give(t)
             return out

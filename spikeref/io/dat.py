@@ -20,6 +20,7 @@ file in the same folder, renamed over the target when complete.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -209,8 +210,6 @@ def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
 
 def read_sidecar(path) -> dict:
     """The ``NAME.json`` beside a ``NAME.dat`` (sizes, CFA, rate written by ``spikeref simulate``), or ``{}``."""
-    import json
-
     meta_path = Path(path).with_suffix(".json")
     if not meta_path.is_file():
         return {}

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import OpenEXR
 
 from spikeref.io.atomic import atomic_write
 
@@ -19,8 +20,6 @@ def write_exr(path, frame: np.ndarray, half: bool = False) -> Path:
     half : bool
         Store float16 (half the size; 11-bit mantissa, max 65504) instead of float32.
     """
-    import OpenEXR
-
     arr = np.asarray(frame)
     if arr.ndim not in (2, 3) or (arr.ndim == 3 and arr.shape[2] != 3):
         raise ValueError(f"frame must have shape (H, W, 3) or (H, W); got {arr.shape}")
@@ -39,8 +38,6 @@ def write_exr(path, frame: np.ndarray, half: bool = False) -> Path:
 
 def read_exr(path) -> np.ndarray:
     """Read an EXR written by :func:`write_exr` (or any RGB/Y scanline EXR) as float32."""
-    import OpenEXR
-
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such EXR file: {path}")

@@ -10,6 +10,7 @@ import glob
 from pathlib import Path
 
 import numpy as np
+import imageio.v3 as iio
 from spikeref.io.exr import read_exr
 
 __all__ = ["read_frames", "IMAGE_SUFFIXES"]
@@ -73,8 +74,6 @@ def read_frames(path, max_frames: int | None = None) -> np.ndarray:
     ValueError
         A file cannot be decoded, holds no frames, or the frames differ in size.
     """
-    import imageio.v3 as iio
-
     if max_frames is not None and (
         isinstance(max_frames, bool) or not isinstance(max_frames, (int, np.integer)) or max_frames < 1
     ):

@@ -11,6 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import imageio.v3 as iio
+import imageio_ffmpeg
 
 from spikeref.io.atomic import atomic_write, publish, temporary_beside
 
@@ -30,8 +32,6 @@ def _as_uint8_image(frame: np.ndarray, name: str = "frame") -> np.ndarray:
 
 def write_png(path, frame: np.ndarray) -> Path:
     """Write an 8-bit PNG, atomically."""
-    import imageio.v3 as iio
-
     arr = _as_uint8_image(frame)
     return atomic_write(path, lambda tmp: iio.imwrite(tmp, arr, extension=".png"))
 
@@ -70,8 +70,6 @@ class VideoWriter:
             self._frames_gif.append(arr)
         else:
             if self._writer is None:
-                import imageio_ffmpeg
-
                 h, w = arr.shape[:2]
                 # H.264 yuv420p needs even sizes: pad by one edge row/column if needed
                 self._pad = (h % 2, w % 2)
@@ -92,8 +90,6 @@ class VideoWriter:
             if self.count == 0:
                 raise ValueError(f"no frames were written to {self.path}")
             if self.suffix == ".gif":
-                import imageio.v3 as iio
-
                 iio.imwrite(self._tmp, np.stack(self._frames_gif), extension=".gif",
                             duration=1000.0 / self.fps, loop=0)
             else:

@@ -239,9 +239,9 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         equation='§4.1, suppl. §8',
         what=('U-Net `f_θ`: head, 5 encoder + 5 decoder blocks of two 3×3 convs, LeakyReLU 0.1, skips, tail (25 '
               'convs), constant width `C`'),
-        function=('`spikeref.denoise.unet.UNet` (direct Numba 3×3 kernel `conv3x3`, channel-first, zero-bordered '
-                  'activations; `denoise._conv_alternatives.conv3x3_im2col` = im2col + BLAS kept as the measured '
-                  'alternative); PyTorch twin `denoise.torch_unet.TorchUNet` for training'),
+        function=('`spikeref.denoise.unet.UNet` (direct Numba 3×3 kernel `denoise.conv.conv3x3`, channel-first, '
+                  'zero-bordered activations; `denoise._conv_alternatives.conv3x3_im2col` = im2col + BLAS kept as '
+                  'the measured alternative); PyTorch twin `denoise.torch_unet.TorchUNet` for training'),
         oracle='`oracles.unet.unet_forward_oracle` (loops over taps, channels-first)',
         tests=('`tests/test_unet.py` (direct, im2col and plain convolutions against `oracles.unet.conv3x3_oracle` by '
                'hypothesis, oracle, torch parity float32, padding/cropping, same output with one thread and the '

@@ -7,6 +7,7 @@ whatever the number of planes; every file is written atomically.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -78,8 +79,6 @@ def simulate_to_dat(scene, path, seed=0, *, planes: int | None = None, effects=N
     total = scene.planes if planes is None else planes
     seed = resolve_seed(seed)
     if effects is not None:
-        from dataclasses import replace
-
         scene = replace(scene, effects=fx.parse_effects(effects))
     want_gt = gt_path is not None or gt_exr_dir is not None
     if want_gt and (not isinstance(gt_window, (int, np.integer)) or gt_window < 1):

@@ -71,6 +71,7 @@ from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
+from scipy import sparse
 
 from spikeref.io.frames import read_frames
 from spikeref.simulate.camera import Camera
@@ -1048,8 +1049,6 @@ def _coerce(cls, key: str, value):
 
 def _resample_matrix(n_in: int, n_out: int):
     """Sparse ``(n_out, n_in)`` resampling along one axis: area average when shrinking, bilinear when enlarging."""
-    from scipy import sparse
-
     rows, cols, vals = [], [], []
     if n_out <= n_in:
         scale = n_in / n_out

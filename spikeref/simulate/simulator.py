@@ -31,6 +31,7 @@ from dataclasses import dataclass, field, replace
 from typing import Iterator
 
 import numpy as np
+from tqdm import tqdm
 
 from spikeref.simulate import effects as fx
 from spikeref.simulate.camera import fire, mosaic_radiance
@@ -297,7 +298,6 @@ def iter_simulation(scene, seed=0, *, planes: int | None = None, effects=None, g
             raise ValueError(f"chunk_planes must be a positive integer; got {chunk_planes!r}")
         chunk = -(-int(chunk_planes) // BLOCK) * BLOCK
     sim = Simulation(scene, seed=seed, effects=effects, gt_window=gt_window)
-    from tqdm import tqdm
 
     with tqdm(total=int(total), desc=f"simulating {getattr(scene, 'name', '')}".strip(), unit="plane",
               disable=not progress, leave=False) as bar:
@@ -402,7 +402,6 @@ def ground_truth(scene, window: int, planes: int | None = None, start: int = 0,
     if getattr(content, "static", False):
         out[...] = (readout_radiance(content, 0, 1) * (cam.alpha / cam.threshold)).astype(np.float32)
         return out
-    from tqdm import tqdm
 
     for k in tqdm(range(n), desc="ground truth", unit="frame", disable=not progress, leave=False):
         acc = np.zeros((content.height, content.width, 3), dtype=np.float64)
