@@ -2,16 +2,20 @@
 
 .. math:: I_c(x, t) = \\frac{M_c}{W} \\sum_{\\tau} S_c(x, \\tau)
 
-Interpretation (``docs/spec/README.md``; the paper writes ``τ = t − W/2 … t + W/2``, which
-is ``W + 1`` planes): the window is exactly ``W`` planes ``[t0, t0 + W)``, and
-frame ``k`` of a stream covers planes ``[start + kW, start + (k+1)W)``.  The
-rate ``count / W`` lies in ``[0, 1]`` (at most one spike per readout);
-``M_c`` is a per-channel gain (1 unless calibrated).
+``W`` is the window: the number of readouts (spike planes) summed, ``window`` in the code.  In an array shape
+such as ``(T, H, W)`` the letters name the axes (readouts, height, width), as everywhere in the package.
 
-The sums are made by the kernels of :mod:`spikeref._accumulate_kernels`: one over unpacked
-``(T, H, W) uint8`` planes and bit-sliced counters straight over the packed ``.dat`` bytes of a
-memory-mapped stream (never unpacking a plane); the oracle
-:func:`spikeref.oracles.accumulate.accumulate_oracle` is the sum written out.
+Interpretation (``docs/spec/accumulate.md``; ``docs/equations.md``, "Interpretations"): the paper writes
+``τ = t − W/2 … t + W/2``, which is ``W + 1`` readouts; here the window is exactly ``window`` readouts, and frame
+``k`` of a stream covers readouts ``[start + k·window, start + (k+1)·window)`` — the paper's ``I(x, t)`` at the
+window's centre ``t = start + (k + ½)·window``.  The rate ``count / window`` lies in ``[0, 1]`` (at most one
+spike per readout).  ``M_c``, which the paper calls the channel's "maximum dynamic range", is a per-channel gain
+here (1 unless calibrated; ``docs/equations.md``).
+
+The sums are made by two kernels in :mod:`spikeref._accumulate_kernels`: one over unpacked ``(T, H, W) uint8``
+arrays, and one with bit-sliced counters that reads the packed ``.dat`` bytes of a memory-mapped stream
+directly, without unpacking a plane.  The oracle :func:`spikeref.oracles.accumulate.accumulate_oracle` is the
+sum written out.
 """
 
 from __future__ import annotations
@@ -32,7 +36,9 @@ def _check_window_args(stream: SpikeStream, window, start, count):
         raise ValueError(f"window must be at least 1 plane; got {window}")
     if not isinstance(start, (int, np.integer)) or start < 0:
         raise ValueError(f"start must be a non-negative plane index; got {start!r}")
-    available = (len(stream) - start) // window if start <= len(stream) else 0
+    if start >= len(stream):
+        raise ValueError(f"start={start} is at or past the end of the stream ({len(stream)} planes)")
+    available = (len(stream) - start) // window
     if count is None:
         count = available
         if count < 1:
@@ -67,9 +73,9 @@ def window_counts(spikes, window: int, start: int = 0, count: int | None = None,
     spikes : SpikeStream or ndarray ``(T, H, W)`` uint8 0/1
         A packed (``.dat``) stream is counted from its bytes without unpacking.
     window : int
-        ``W``, planes per window (≥ 1).
+        Readouts per window (≥ 1), the paper's ``W``.
     start : int
-        First plane of the first window.
+        First readout of the first window.
     count : int, optional
         Number of windows; default all whole windows after ``start``.
     out : ndarray, optional
@@ -78,9 +84,8 @@ def window_counts(spikes, window: int, start: int = 0, count: int | None = None,
 
     Returns
     -------
-    ndarray ``(count, H, W)``, the smallest of ``uint8`` (``W ≤ 255``),
-    ``uint16``, ``uint32`` that holds ``W``:
-    ``out[k] = Σ_{τ ∈ [start + kW, start + (k+1)W)} S(x, τ)``.
+    ndarray ``(count, H, W)``, the smallest of ``uint8`` (``window ≤ 255``), ``uint16``, ``uint32`` that holds
+    ``window``: ``out[k] = Σ_{τ ∈ [start + k·window, start + (k+1)·window)} S(x, τ)``.
     """
     stream = as_stream(spikes)
     window, start, count = _check_window_args(stream, window, start, count)
@@ -112,14 +117,14 @@ def accumulate(
     spikes, window: int, start: int = 0, count: int | None = None, gains=None, cfa: str | None = None,
     out=None,
 ) -> np.ndarray:
-    """Eq. 4 for a whole stream: firing-rate frames on the ``W`` grid.
+    """Eq. 4 for a whole stream: one firing-rate frame per window.
 
     Parameters
     ----------
     spikes : SpikeStream or ndarray ``(T, H, W)`` uint8 0/1
     window : int
-        ``W`` in planes; frame ``k`` covers ``[start + kW, start + (k+1)W)``.
-        At 20 kHz, ``W = 10`` is 0.5 ms and gives 2000 frames/s.
+        Readouts per window, the paper's ``W``; frame ``k`` covers ``[start + k·window, start + (k+1)·window)``.
+        At 20 kHz, ``window = 10`` is 0.5 ms and gives 2000 frames/s.
     start, count : int
         First plane and number of frames (default: every whole window).
     gains : None, float or (M_R, M_G, M_B)
@@ -131,8 +136,7 @@ def accumulate(
 
     Returns
     -------
-    ndarray ``(count, H, W) float32``: ``I_c = M_c · count / W`` (in ``[0, 1]``
-    when ``M_c = 1``).
+    ndarray ``(count, H, W) float32``: ``I_c = M_c · count / window`` (in ``[0, 1]`` when ``M_c = 1``).
     """
     stream = as_stream(spikes, cfa=cfa)
     counts = window_counts(stream, window, start, count)
@@ -145,8 +149,12 @@ def accumulate(
     return out
 
 
-def accumulate_window(spikes, start: int, window: int, gains=None, cfa: str | None = None) -> np.ndarray:
-    """Eq. 4 for one window ``[start, start + window)`` → ``(H, W) float32``."""
+def accumulate_window(spikes, *, start: int, window: int, gains=None, cfa: str | None = None) -> np.ndarray:
+    """Eq. 4 for one window ``[start, start + window)`` → ``(H, W) float32``.
+
+    ``start`` and ``window`` are keyword-only: :func:`accumulate` takes ``(window, start)`` and
+    :meth:`SpikeStream.window` ``(start, length)``, so a positional call would be easy to get backwards.
+    """
     return accumulate(spikes, window, start=start, count=1, gains=gains, cfa=cfa)[0]
 
 

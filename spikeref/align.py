@@ -5,17 +5,16 @@ The paper estimates the flow ``F_l`` of Eq. 14–15 with "off-the-shelf" multi-f
 coarsest level to the finest, and *larger patches for the noisy early steps, progressively smaller later*.  This
 module is that alignment, after Hasinoff et al. 2016, "Burst photography for high dynamic range and low-light
 imaging on mobile cameras", §4 and its supplement, on one single-channel image per frame on the Bayer-plane grid
-(``h × w = H/2 × W/2``; the pipeline feeds the 2×2 :func:`~spikeref.bayer.luma` of the denoised planes ``D(I_l)``).
+(``h × w = H/2 × W/2``).  The paper aligns the 2×2 :func:`~spikeref.bayer.luma` of the denoised planes ``D(I_l)``
+(``flow_frames="denoised"``, ``ReconstructParams.paper()``); the package's default aligns a Gaussian-smoothed luma
+of the planes before denoising (``flow_frames="smoothed"``, :func:`spikeref.pipeline.flow_luma`).
 
 Flow convention
 ---------------
 The flow is ``(2, h, w)`` float32, ``(dy, dx)`` in pixels of the plane grid, with
-
-    ``alternate[y + dy, x + dx] ≈ reference[y, x]``
-
-so backward warping of ``alternate`` by the flow (:func:`spikeref.warp.warp_bilinear`)
-reproduces ``reference``.  It is the ``F(x, t, t')`` of Eq. 14–15 with ``t`` the reference
-window and ``t'`` the alternate's.
+``alternate[y + dy, x + dx] ≈ reference[y, x]``, so backward warping of ``alternate`` by the flow
+(:func:`spikeref.warp.warp_bilinear`) reproduces ``reference``: the ``F(x, t, t')`` of Eq. 14–15 with ``t`` the
+reference window and ``t'`` the alternate's.
 
 Interpretations (the paper names HDR+ and the pyramid, nothing finer)
 ---------------------------------------------------------------------
@@ -34,7 +33,7 @@ Each rule is written out exactly, for a port, in the section of ``docs/spec/alig
   coarse tile and its horizontal and vertical neighbours on the fine tile's side), doubled; the one
   with the smallest L1 distance becomes the search centre.
 * [Sub-pixel fit] HDR+'s least-squares quadratic through the 3×3 L2 distances around the integer
-  vector, kept when ``A`` is positive definite (:data:`PD_TOLERANCE`) and the step is within ±1
+  vector, kept when ``A`` is positive definite (:data:`PD_TOLERANCE`) and the move is within ±1
   pixel (:data:`SLACK`); an exact match stays as it is.
 * [Per-pixel flow] the tile vectors at the tile centres, interpolated bilinearly; beyond the
   outermost centres the nearest centre's value.  The reach is ``Σ_k r_k 2^k`` plane pixels (57).
@@ -83,12 +82,14 @@ def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAU
     params : AlignParams
         Pyramid, tile and search settings.
     noise : float or ndarray ``(h, w)``, optional
-        Per-pixel noise variance of each image (used only with ``params.prefer_centre > 0``);
-        default: :func:`local_noise` of the two images, averaged.
+        Per-pixel noise variance of each image, used by the noise-aware search (``params.prefer_centre > 0``)
+        and by the regularised Lucas–Kanade field (``refine="lk"`` with ``smoothness > 0``); default:
+        :func:`spikeref.align_noise.local_noise` of the two images, averaged.  The pipeline gives the variance
+        of the raw frames (before denoising or smoothing) whatever images it aligns.
     correlation : float, optional
-        Correlation of the two images' noise at the same pixel (used only with
-        ``params.prefer_centre > 0``; clipped below at :data:`MIN_CORRELATION`); default:
-        :func:`estimate_noise_correlation`.
+        Correlation of the two images' noise at the same pixel (used only with ``params.prefer_centre > 0``;
+        clipped below at :data:`spikeref.align_noise.MIN_CORRELATION`); default:
+        :func:`spikeref.align_noise.estimate_noise_correlation`.
 
     Returns
     -------
@@ -134,23 +135,28 @@ def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAU
         for _ in range(params.levels - 1):  # the local mean variance under each level's pixels
             noise_pyr.append(blur_decimate(noise_pyr[-1]).astype(np.float64))
         factors = level_noise_factors(params.levels)
+    # HDR+ (§4): coarse to fine, each level's integer search centred on the upsampled coarser vectors.  With the
+    # noise-aware search off, bias = 0 and thresh = −1 (the kernels' "off"); on, they come from the noise pyramid.
     vectors = None  # integer vectors of the previous (coarser) level
     for k in range(params.levels - 1, -1, -1):
-        t = tile if k == 0 else params.coarse_tile
+        size = tile if k == 0 else params.coarse_tile
         r_img, a_img = ref_pyr[k], alt_pyr[k]
-        shape = (_tile_count(r_img.shape[0], t), _tile_count(r_img.shape[1], t), 2)
+        grid = (_tile_count(r_img.shape[0], size), _tile_count(r_img.shape[1], size))
+        l2 = k > 0  # L2 distances at the coarse levels, L1 at the finest
         if noise_pyr is None:
-            bias, thresh = np.zeros(shape[:2]), np.full(shape[:2], -1.0)
+            bias, thresh = np.zeros(grid), np.full(grid, -1.0)
         else:
-            bias, thresh = search_thresholds(noise_pyr[k], factors[k], t, shape[:2], k > 0, params.prefer_centre, rho)
-        centre = np.zeros(shape, np.int64)
+            bias, thresh = search_thresholds(noise_pyr[k], factors[k], size, grid, l2=l2, z=params.prefer_centre,
+                                             rho=rho)
+        centre = np.zeros(grid + (2,), np.int64)
         if vectors is not None:
             up_bias = bias  # zeros when off; else the L1 bias, as the candidates are compared by L1
-            if noise_pyr is not None and k > 0:
-                up_bias = search_thresholds(noise_pyr[k], factors[k], t, shape[:2], False, 0.0, rho)[0]
-            upsample_tiles(r_img, a_img, t, vectors, params.coarse_tile, up_bias, centre)
-        vectors = np.empty(shape, np.int64)
-        search_tiles(r_img, a_img, t, centre, params.search_radius[k], k > 0, bias, thresh, vectors)
+            if noise_pyr is not None and l2:
+                up_bias = search_thresholds(noise_pyr[k], factors[k], size, grid, l2=False, z=0.0, rho=rho)[0]
+            upsample_tiles(r_img, a_img, size, vectors, params.coarse_tile, up_bias, centre)
+        vectors = np.empty(grid + (2,), np.int64)
+        search_tiles(r_img, a_img, size, centre, params.search_radius[k], l2, bias, thresh, vectors)
+    # the sub-pixel step: HDR+'s quadratic fit (the paper's), or Lucas–Kanade with the regularised field (default)
     out = np.empty(vectors.shape, np.float32)
     if params.subpixel and params.refine == "lk":
         refined = np.empty(vectors.shape, np.float64)
@@ -216,6 +222,7 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
           correlation=None, raw=None) -> np.ndarray:
     """Dense flow from ``reference`` to ``alternate``: HDR+ tile alignment, then bilinear interpolation.
 
+    Without the zero-motion test (``params.zero_test=None``, as HDR+),
     ``align(r, a, step, params) == flow_from_tiles(*align_tiles(r, a, step, params), r.shape)``.
 
     Parameters
@@ -223,9 +230,9 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
     reference, alternate, step, params, noise, correlation
         As in :func:`align_tiles`.
     raw : (ndarray, ndarray), optional
-        The frames :func:`zero_motion_test` compares when ``params.zero_test`` is set (``noise`` and
-        ``correlation`` describe them); default ``(reference, alternate)``.  The pipeline gives the
-        2×2 luma before smoothing.
+        The frames :func:`spikeref.align_noise.zero_motion_test` compares when ``params.zero_test`` is set
+        (``noise`` and ``correlation`` describe them); default ``(reference, alternate)``.  The pipeline gives
+        the 2×2 luma before smoothing.
 
     Returns
     -------

@@ -1,14 +1,15 @@
 """Classic spike-camera reconstructions used as baselines (paper §5.2, Table 1).
 
 * **TFP** — texture from playback (Zhu et al. 2019): the firing rate over a window, i.e. Eq. 4 with ``M_c = 1``.
-* **TFI** — texture from inter-spike intervals (Zhu et al. 2019): the inverse of the interval between the two
-  spikes around time ``t``.
+* **TFI** — texture from inter-spike intervals (Zhu et al. 2019): the inverse of an inter-spike interval — at
+  time ``t``, the interval that ends at the first spike at or after ``t`` (SpikeCV's choice).
 * **TFSTP** — texture from short-term plasticity (Zheng et al. 2023): a Tsodyks–Markram synapse per pixel, driven
   by its spikes; the firing rate is read back from the synapse's steady-state relations.
 
 All three are defined for monochrome streams and return **linear rates in spikes per readout** (``[0, 1]``), so
 they can be compared with each other and with the method.  For a Bayer stream each pixel is processed on its own
-(so per Bayer plane) and the result is demosaicked with Ψ (:func:`bayer_baseline`), as the paper does in Table 1.
+(so per Bayer plane) and the result is demosaicked with Ψ (:func:`bayer_baseline`).  The paper does not say how
+it coloured the baselines of Table 1; this is the package's choice (the method's own demosaic).
 
 How each one compares with SpikeCV's (``spkProc/reconstruction``) is in ``docs/spec/baselines.md``, "Comparing
 with SpikeCV".
@@ -170,7 +171,8 @@ def tfstp(spikes, times=None, params: STPParams = STPParams(), state: TFSTPState
         u ← u0 + (u + f (1 − u) − u0) · exp(−Δt / F)
 
     and at an output time the rate is the mean of the two estimates ``1/Δ`` obtained by inverting these
-    relations at their fixed point.
+    relations at their fixed point; an estimate the inversion leaves undefined counts as 0 in that mean
+    (``docs/spec/baselines.md``, "tfstp").
 
     Parameters
     ----------
@@ -180,8 +182,8 @@ def tfstp(spikes, times=None, params: STPParams = STPParams(), state: TFSTPState
     params : STPParams
         ``u0 = 0.15, D = 1, F = 10, f = 0.15`` (SpikeCV's defaults; time in readouts).
     state : TFSTPState, optional
-        Continue from this state (for chunked processing); it is updated in place.  Without it the synapses
-        start at rest at plane 0.
+        Continue from this state (for chunked processing); it is updated in place, and its own ``params``
+        are used (``params`` is then ignored).  Without it the synapses start at rest at plane 0.
 
     Returns
     -------
@@ -233,14 +235,19 @@ def baseline_frames(stream, method: str, window: int = 10, every: int | None = N
                     chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
     """Yield ``(index, frame)`` of a baseline over a stream, colour (Ψ) when the stream has a CFA.
 
-    TFP: frame ``k`` is window ``[kW, (k+1)W)``; TFI and TFSTP: frame ``k`` is their reconstruction at
-    plane ``k · every`` (default ``every = window``), via :func:`streamed_baseline`.  Chunks of
-    ``chunk_frames`` frames bound the memory whatever the stream's length.
+    TFP: frame ``k`` is window ``[k·window, (k+1)·window)`` (centred at ``(k + ½)·window``); TFI and TFSTP: frame
+    ``k`` is their reconstruction at plane ``k · every`` (default ``every = window``), via
+    :func:`streamed_baseline` — so with the same index TFP is half a window later.  ``stream`` is a
+    :class:`~spikeref.stream.SpikeStream` or a ``(T, H, W)`` array.  Chunks of ``chunk_frames`` frames bound the
+    memory whatever the stream's length.
     """
     if method not in BASELINES:
         raise ValueError(f"unknown baseline {method!r}; choose one of {', '.join(BASELINES)}")
-    every = window if every is None else every  # 0 is a value (refused downstream), not "not given"
-    finish = (lambda f: demosaic_bilinear(f, stream.cfa)) if stream.cfa else (lambda f: f)
+    every = window if every is None else every  # 0 is a value (refused below), not "not given"
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise ValueError(f"every must be a positive number of planes; got {every!r}")
+    stream = as_stream(stream)
+    finish = (lambda f: bayer_baseline(f, stream.cfa)) if stream.cfa else (lambda f: f)
     if method == "tfp":
         n_total = len(stream) // window
         if n_total < 1:

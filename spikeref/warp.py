@@ -13,6 +13,12 @@ and Eq. 15 (steps ``l ≥ 2``) averages ``K`` frames of the previous step, each 
 
     I_{c,l}(x, t) = \\frac{1}{K} \\sum_{i} I_{c,l-1}(x + F_{l-1}(x, t, t_i), t_i).
 
+What runs where: the paper's procedure (``ReconstructParams.paper()``, ``warp="progressive"``) makes every
+step with this module.  The package's default (``warp="composed"``) makes the frames of steps ``1 … L − 1``
+(which the later steps' flows are estimated on) here, and the output ``I_L`` with
+:func:`spikeref.compose.composed_warp`, which composes the same flows so that each spike window is resampled
+once, with a cubic kernel (``docs/spec/warp.md``).
+
 Interpretations (``docs/equations.md``, "Interpretations")
 ---------------------------
 * **Backward bilinear sampling, per Bayer plane.**  A frame is ``(4, h, w)`` Bayer planes
@@ -21,8 +27,8 @@ Interpretations (``docs/equations.md``, "Interpretations")
   ``alternate[y + dy, x + dx] ≈ reference[y, x]``.  The same flow moves all four planes.
 * **Samples outside the image are dropped and the weights renormalised.**  A sample at
   ``(y + dy, x + dx)`` has four bilinear taps; taps outside the plane are left out.  For
-  neighbour ``i`` this gives a partial sum ``s_i(x)`` and its weight ``w_i(x)`` (the in-image
-  bilinear weights, in ``[0, 1]``), and the average is ``Σ_i s_i(x) / Σ_i w_i(x)`` — the
+  neighbour ``i`` this gives a partial sum ``s_i(x)`` and its tap weight ``ω_i(x)`` (the in-image
+  bilinear weights, in ``[0, 1]``), and the average is ``Σ_i s_i(x) / Σ_i ω_i(x)`` — the
   ``1/K`` of Eq. 15 when every sample lies inside.  The reference itself has zero flow and
   weight 1, so the denominator is never below 1 in the pipeline; where it is 0 (no sample at
   all, only possible without the reference) the output is 0.
@@ -46,7 +52,7 @@ __all__ = ["warp_bilinear", "warp_average", "warp_spike_windows"]
 
 # ----------------------------------------------------------------------------- kernels
 @njit(inline="always")
-def _taps(y, x, dy, dx, h, w):
+def _taps(y, x, dy, dx):
     """Integer corner and fractional parts of the sample at ``(y + dy, x + dx)``."""
     sy = y + dy
     sx = x + dx
@@ -65,7 +71,7 @@ def _warp_average(images, flows, out):
                 out[c, y, x] = 0.0
             wsum = 0.0
             for k in range(n):
-                y0, x0, fy, fx = _taps(y, x, flows[k, 0, y, x], flows[k, 1, y, x], h, w)
+                y0, x0, fy, fx = _taps(y, x, flows[k, 0, y, x], flows[k, 1, y, x])
                 for ty in range(2):
                     yy = y0 + ty
                     if yy < 0 or yy >= h:
@@ -98,7 +104,7 @@ def _warp_bilinear(image, flow, out, weight):
             for c in range(nc):
                 out[c, y, x] = 0.0
             wsum = 0.0
-            y0, x0, fy, fx = _taps(y, x, flow[0, y, x], flow[1, y, x], h, w)
+            y0, x0, fy, fx = _taps(y, x, flow[0, y, x], flow[1, y, x])
             for ty in range(2):
                 yy = y0 + ty
                 if yy < 0 or yy >= h:
@@ -138,7 +144,10 @@ def _check_flows(flows, shape, name: str) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- public
 def warp_bilinear(image, flow) -> tuple[np.ndarray, np.ndarray]:
-    """Backward bilinear warp of one frame, out-of-image taps dropped (the building block of Eq. 14–15).
+    """Backward bilinear warp of one frame, out-of-image taps dropped: Eq. 14–15's sampling for a single frame.
+
+    :func:`warp_average` and :func:`warp_spike_windows` sample the same way inside one kernel; this
+    function is the single-frame form, for inspecting a flow.
 
     Parameters
     ----------

@@ -60,9 +60,9 @@ def test_saturated_and_dark_streams_give_rates_one_and_zero():
 
 def test_per_channel_gains_follow_the_cfa():
     spikes = np.ones((4, 2, 2), np.uint8)
-    frame = accumulate_window(spikes, 0, 4, gains=(2.0, 1.0, 0.5), cfa="RGGB")
+    frame = accumulate_window(spikes, start=0, window=4, gains=(2.0, 1.0, 0.5), cfa="RGGB")
     np.testing.assert_allclose(frame, [[2.0, 1.0], [1.0, 0.5]])
-    frame = accumulate_window(spikes, 0, 4, gains=(2.0, 1.0, 0.5), cfa="BGGR")
+    frame = accumulate_window(spikes, start=0, window=4, gains=(2.0, 1.0, 0.5), cfa="BGGR")
     np.testing.assert_allclose(frame, [[0.5, 1.0], [1.0, 2.0]])
     with pytest.raises(ValueError, match="need a Bayer pattern"):
         accumulate(spikes, 2, gains=(1, 1, 1))
@@ -75,6 +75,8 @@ def test_per_channel_gains_follow_the_cfa():
         (dict(window=11), "longer than the 10 planes"),
         (dict(window=2.5), "window must be an integer"),
         (dict(window=2, start=-1), "start must be"),
+        (dict(window=2, start=50), r"start=50 is at or past the end of the stream \(10 planes\)"),
+        (dict(window=2, start=10), "start=10 is at or past the end"),
         (dict(window=2, count=6), "need 12 planes"),
         (dict(window=2, gains=-1.0), "gains must be"),
     ],

@@ -6,6 +6,7 @@ from hypothesis import strategies as st
 from spikeref.baselines import (
     STPParams,
     TFSTPState,
+    baseline_frames,
     streamed_baseline,
     tfi,
     tfp,
@@ -106,3 +107,13 @@ def test_tfp_and_tfi_on_real_recordings_match_spikecv_definitions(real_data):
         # TFP and TFI see the same scene: their images correlate strongly
         a, b = ref[t - h].ravel(), tfi(spikes, [t])[0].ravel()
         assert np.corrcoef(a, b)[0, 1] > 0.6
+
+
+def test_baseline_frames_takes_an_array_and_refuses_a_bad_every():
+    spikes = (np.random.default_rng(3).random((40, 2, 4)) < 0.3).astype(np.uint8)
+    frames = dict(baseline_frames(spikes, "tfp", window=10))
+    assert sorted(frames) == [0, 1, 2, 3]
+    np.testing.assert_array_equal(frames[1], spikes[10:20].mean(axis=0, dtype=np.float32))
+    for every in (0, -1, 2.5):
+        with pytest.raises(ValueError, match="every must be a positive"):
+            list(baseline_frames(spikes, "tfi", window=10, every=every))

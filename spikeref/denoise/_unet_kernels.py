@@ -3,7 +3,10 @@
 The direct 3×3 convolution (one parallel job per output row and group of four output channels, the
 nine taps of each input channel summed as one expression over rows held in the L1 cache; fused
 multiply-adds only, no reassociation, so the result does not depend on the thread count), 2×2
-max-pooling and the nearest upsampling fused with the skip concatenation.  Activations are
+max-pooling and the nearest upsampling fused with the skip concatenation.  LLVM turns the nine-tap expression into
+fused multiply-adds over a vector of pixels; every output value is computed by one job in a fixed order.  The
+measured alternatives (im2col + BLAS, the network's convolution until 2026-11-23, and one ``einsum`` per tap)
+are in :mod:`spikeref.denoise._conv_alternatives`, for ``benchmarks/test_speed_unet.py``.  Activations are
 channel-first with a zero border of one pixel; every kernel writes interiors only.  Nothing here checks
 its arguments: :func:`spikeref.denoise.conv.conv3x3` and :class:`~spikeref.denoise.unet.UNet` do.
 """

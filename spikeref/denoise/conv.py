@@ -1,15 +1,9 @@
-"""The U-Net's 3×3 convolution (§4.1, supplement §8), a direct Numba kernel.
+"""The U-Net's 3×3 convolution (§4.1, supplement §8): zero padding 1, a bias, an optional LeakyReLU.
 
-The kernel works in channel-first layout: one job per
-output row and group of four output channels, the nine taps of each input channel summed as
-one expression over a row held in the L1 cache, which LLVM turns into fused multiply-adds over
-eight pixels at a time.  Every output value is computed by one job in a fixed order, so the
-result does not depend on the number of threads.  The measured alternatives (im2col + BLAS,
-the network's convolution until 2026-11-23, and one ``einsum`` per tap) are in
-:mod:`spikeref.denoise._conv_alternatives`, for ``benchmarks/test_speed_unet.py``; the network
-never calls them.  The kernel itself is in :mod:`spikeref.denoise._unet_kernels`.
-
-The literal oracle is :func:`spikeref.oracles.unet.conv3x3_oracle`.
+:func:`conv3x3` is the checked public form, :func:`conv_padded` the form the network calls on activations it
+keeps with a zero border.  Both run the direct Numba kernel of :mod:`spikeref.denoise._unet_kernels` (how it is
+made fast is written there; the alternatives it was measured against are in
+:mod:`spikeref.denoise._conv_alternatives`).  The literal oracle is :func:`spikeref.oracles.unet.conv3x3_oracle`.
 """
 
 from __future__ import annotations
@@ -23,10 +17,11 @@ __all__ = ["conv3x3", "conv_padded"]
 
 def conv_padded(xp: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None,
                 out: np.ndarray | None = None) -> np.ndarray:
-    """:func:`conv3x3` on checked, zero-bordered input, for the U-Net's layers (which keep their activations bordered).
+    """:func:`conv3x3` without argument checks, on zero-bordered input, for the U-Net's layers.
 
-    ``xp`` is ``(N, Cin, H + 2, W + 2)`` float32 with a zero border, ``weight`` and ``bias`` float32 and
-    C-contiguous; the result goes into ``out`` (a new zero-bordered buffer by default), whose border stays zero.
+    The caller has checked the arrays: ``xp`` is ``(N, Cin, H + 2, W + 2)`` float32 with a zero border,
+    ``weight`` and ``bias`` float32 and C-contiguous; the result goes into ``out`` (a new zero-bordered buffer by
+    default), whose border stays zero.
     """
     n, _, hp, wp = xp.shape
     out = padded_empty(n, weight.shape[0], hp - 2, wp - 2) if out is None else out

@@ -12,18 +12,23 @@ layer          operation                              channels in → out    res
 ``tail0/1/2``  conv, conv, conv (the last linear)     C → C → C/2 → 1      1
 =============  =====================================  ===================  ==========
 
-``C`` is :attr:`UNetSpec.width`; every convolution is 3×3 with zero padding 1 and a bias,
-followed by LeakyReLU (slope :attr:`UNetSpec.negative_slope`) except ``tail2``.  The skip of
-decoder block ``k`` is the output of encoder block ``k − 1`` (the head for ``k = 1``).
-Input and output are one-channel firing-rate images (spikes per readout), shared by the
-four Bayer planes.
+``C`` is :attr:`UNetSpec.width`, the hidden channels (not the paper's ``C = h_s × w_s`` of §4.1, the cells of
+the blind-spot mask); every convolution is 3×3 with zero padding 1 and a bias, followed by LeakyReLU (slope
+:attr:`UNetSpec.negative_slope`) except ``tail2``.  The skip of decoder block ``k`` is the output of encoder
+block ``k − 1`` (the head for ``k = 1``).  The same network runs on each of the four Bayer planes.
 
-Any input size is accepted: the image is reflect-padded at the bottom and right to a multiple
-of ``2^depth`` (32) and the output cropped back.
+Input and output are one-channel images in the domain the weights were trained in, their ``meta``
+``input_domain``: ``"count"`` (spike counts ``I·W``; every bundled network) or ``"rate"`` (spikes per readout).
+:class:`spikeref.denoise.denoiser.Denoiser` scales a frame into that domain and back, and runs ``f_θ`` inside
+Eq. 10–11 (:mod:`spikeref.denoise.blindspot`) or on the frame itself (visible mode).
 
-Each convolution is :func:`spikeref.denoise.conv.conv3x3`'s direct Numba kernel on zero-bordered,
-channel-first activations; a pass takes its buffers from a per-thread pool that the pass before filled
-(:func:`release_buffers` frees it), in :mod:`spikeref.denoise._unet_kernels`.
+Any input size is accepted: the image is padded at the bottom and right to a multiple of ``2^depth`` (32),
+whole-sample symmetric (NumPy's ``"reflect"``, ``docs/spec/README.md``), and the output cropped back.
+
+:func:`spikeref.oracles.unet.unet_forward_oracle` is the same network written as plain loops, for reading.
+Here each convolution is :func:`spikeref.denoise.conv.conv_padded` on zero-bordered, channel-first activations,
+and a pass takes its buffers from a per-thread pool that the pass before filled (:func:`release_buffers` frees
+it), in :mod:`spikeref.denoise._unet_kernels`.
 
 The weights file (``.npz``, PyTorch's layout, with a JSON ``meta`` saying how the weights were made)
 is read and written by :mod:`spikeref.io.unet_weights`.
@@ -50,13 +55,14 @@ class UNetSpec:
     Parameters
     ----------
     width : int
-        Channels ``C`` of the hidden layers (even, ≥ 2).  The paper's Blind2Unblind network
-        uses 48; a smaller width is faster on a CPU (see ``docs/results.md``).
+        Channels ``C`` of the hidden layers (even, ≥ 2); 32 by default, 16 in every bundled network.
+        Blind2Unblind (the paper's ref. [31]) uses 48; the paper gives none.  A smaller width is faster on a CPU
+        (``docs/results.md``).
     depth : int
         Encoder (and decoder) blocks; the input is padded to a multiple of ``2**depth``.
         The paper's network has 5.
     negative_slope : float
-        Slope of LeakyReLU for negative inputs.
+        Slope of LeakyReLU for negative inputs (0.1 by default; the paper gives none).
     """
 
     width: int = 32
@@ -97,7 +103,7 @@ def layer_shapes(spec: UNetSpec) -> dict[str, tuple[int, int]]:
 
 # ----------------------------------------------------------------------------- the network
 class UNet:
-    """The U-Net with fixed weights; ``net(batch)`` maps ``(N, H, W)`` rates to ``(N, H, W)``.
+    """The U-Net with fixed weights; ``net(batch)`` maps ``(N, h, w)`` images to ``(N, h, w)``.
 
     Build it with :meth:`load` (a weights ``.npz``), :meth:`from_params` (a dict of PyTorch-layout
     arrays) or :meth:`random` (He-initialised, for tests and benchmarks).
@@ -174,8 +180,8 @@ class UNet:
 
         Parameters
         ----------
-        batch : ndarray ``(N, H, W)`` or ``(H, W)``, float
-            Firing rates (spikes per readout); any ``H, W ≥ 1``.
+        batch : ndarray ``(N, h, w)`` or ``(h, w)``, float
+            Bayer planes in the weights' domain (counts or rates, module docstring); any ``h, w ≥ 1``.
 
         Returns
         -------
@@ -185,7 +191,7 @@ class UNet:
         if x.ndim not in (2, 3):
             raise ValueError(f"batch must have shape (N, H, W) or (H, W); got {x.shape}")
         if not np.issubdtype(x.dtype, np.floating):
-            raise TypeError(f"batch must be floating point (firing rates); got {x.dtype}")
+            raise TypeError(f"batch must be floating point (counts or rates); got {x.dtype}")
         if x.size == 0:
             raise ValueError(f"batch is empty: shape {x.shape}")
         if not np.all(np.isfinite(x)):
@@ -200,7 +206,7 @@ class UNet:
         return np.ascontiguousarray(out[0] if single else out)
 
     def _forward(self, x: np.ndarray) -> np.ndarray:
-        """The layers on a padded batch ``(N, H, W)`` float32.
+        """The layers on a padded batch ``(N, h, w)`` float32.
 
         Activations are kept channel-first with a zero border of one pixel,
         ``(N, C, H + 2, W + 2)``, so each convolution reads its input in place.
