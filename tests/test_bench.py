@@ -200,3 +200,36 @@ def test_pareto_plot_is_a_png(tmp_path):
                  "seconds_per_frame": 0.1})
     assert plot_pareto(summarize(rows), tmp_path / "p.png")
     assert (tmp_path / "p.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_pareto_labels_never_overlap():
+    # Ten settings on top of one another: the labels the plot keeps must not cover each other, and the
+    # defaults (the highest priority among the method's settings) keep theirs.
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from spikeref.bench.report import _label_points
+
+    summary = [{"setting": f"ours visible W=10 K=5 L={k}", "method": "ours", "warp": "", "align": "on",
+                "flow_frames": "smoothed"} for k in range(9)]
+    summary.append({"setting": "ours visible W=10 K=3 L=3 smoothed-flow", "method": "ours", "warp": "",
+                    "align": "on", "flow_frames": "smoothed"})
+    cost = np.full(10, 0.02) * (1 + 0.001 * np.arange(10))
+    score = 27.0 + 0.001 * np.arange(10)
+    fig, ax = plt.subplots()
+    ax.scatter(cost, score)
+    ax.set_xscale("log")
+    ax.set_xlim(1e-3, 1.0)  # the ten points within a few pixels of each other
+    ax.set_ylim(20.0, 30.0)
+    fig.canvas.draw()
+    _label_points(ax, summary, cost, score, np.ones(10, bool), np.ones(10, bool))
+    labels = [t for t in ax.texts]
+    renderer = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    assert "defaults (10/3/3)" in [t.get_text() for t in labels]
+    assert 1 <= len(labels) < 10
+    assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    plt.close(fig)

@@ -50,7 +50,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["RUNGS", "RUNG_LABELS", "LadderSetting", "binomial_weights", "true_flow_frame", "run_ladder",
+__all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "LadderSetting", "binomial_weights", "true_flow_frame", "run_ladder",
            "ladder_markdown", "plot_ladder"]
 
 #: The rungs, bottom to top.
@@ -63,6 +63,8 @@ RUNG_LABELS = {
     "true_flow_d": "true flow + D", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
     "limit_mhc": "limit, MHC demosaic", "ours_count": "ours, Eq. 4 count",
 }
+#: Columns that are options beside the ladder (another demosaic, Eq. 4's counts), not rungs of it.
+OPTION_RUNGS = ("ours_mhc", "limit_mhc", "ours_count")
 #: Border left out of the end-point error, full-resolution pixels.
 EPE_BORDER = 8
 
@@ -437,19 +439,30 @@ def plot_ladder(result: dict, path, setting: str | None = None) -> bool:
     rungs = result["rungs"]
     scenes, grid = _table(result, setting, "psnr")
     fig, ax = plt.subplots(figsize=(12, 5.2))
-    x = np.arange(len(rungs))
+    # the ladder's rungs, then (after a gap) the options that are not rungs of it: each part drawn on its own
+    parts = [[r for r in rungs if r not in OPTION_RUNGS], [r for r in rungs if r in OPTION_RUNGS]]
+    rungs = parts[0] + parts[1]
+    x = np.concatenate([np.arange(len(parts[0])), len(parts[0]) + 0.6 + np.arange(len(parts[1]))])
     lines = {s: np.array([grid.get((s, r), np.nan) for r in rungs], dtype=float) for s in scenes}
     full = [y for y in lines.values() if np.all(np.isfinite(y))]
     mean = np.mean(full, axis=0) if full else None
     finite = np.concatenate([y[np.isfinite(y)] for y in lines.values()] or [np.zeros(1)])
     # a scene far below the others (low light: ~10 dB) would squash the rest: keep 8 dB under the mean
     bottom = max(float(finite.min()), float(np.nanmin(mean)) - 8.0) - 0.5 if mean is not None else None
+    cut = len(parts[0])
     for s, y in lines.items():
         off = bottom is not None and np.nanmin(y) < bottom
-        ax.plot(x, y, marker="o", lw=1, alpha=0.6, label=s + (" (partly below the axis)" if off else ""))
+        line, = ax.plot(x[:cut], y[:cut], marker="o", lw=1, alpha=0.6,
+                        label=s + (" (partly below the axis)" if off else ""))
+        ax.plot(x[cut:], y[cut:], marker="o", lw=1, alpha=0.6, color=line.get_color())
     if mean is not None:
-        ax.plot(x, mean, marker="s", lw=3, color="k", label=f"mean of {len(full)}")
+        ax.plot(x[:cut], mean[:cut], marker="s", lw=3, color="k", label=f"mean of {len(full)}")
+        ax.plot(x[cut:], mean[cut:], marker="s", lw=3, color="k")
         ax.set_ylim(bottom, float(finite.max()) + 1.0)
+    if parts[1]:
+        ax.axvline(cut - 0.2, color="0.4", ls="--", lw=1)
+        ax.text(cut, 0.98, "options beside the ladder", transform=ax.get_xaxis_transform(), va="top", ha="left",
+                fontsize=8, color="0.3")
     ax.set_xticks(x)
     ax.set_xticklabels([RUNG_LABELS[r] for r in rungs], rotation=35, ha="right")
     ax.set_ylabel("PSNR (dB), linear RGB against the exact ground truth")
