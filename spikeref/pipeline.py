@@ -74,11 +74,10 @@ the ``2(L − l)h + 1`` windows that later frames still need; windows are read f
 from __future__ import annotations
 
 import copy
-import dataclasses
 import time
 import warnings
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Iterator
 
 import numpy as np
@@ -797,10 +796,10 @@ def _fit_align_size(h: int, w: int, p: ReconstructParams) -> ReconstructParams:
              f"(levels={a.levels}, tile_by_step={a.tile_by_step} need {need}×{need} per plane)")
     if fitted is None:
         warnings.warn(f"{small}: not aligned, zero flow (as align=False)", UserWarning, stacklevel=3)
-        return dataclasses.replace(p, align=False)
+        return replace(p, align=False)
     warnings.warn(f"{small}: aligned with levels={fitted.levels}, tile_by_step={fitted.tile_by_step}", UserWarning,
                   stacklevel=3)
-    return dataclasses.replace(p, align_params=fitted)
+    return replace(p, align_params=fitted)
 
 
 def reconstruct(stream, W: int = 10, K: int = 3, L: int = 3, mode: str = "visible", denoiser=None,

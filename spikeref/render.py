@@ -176,9 +176,6 @@ def render_baseline(stream, method: str, video, exr_dir=None, window: int = 10, 
 
     if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
         raise ValueError(f"window must be a positive number of planes; got {window!r}")
-    step = window if every is None else every
-    if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
-        raise ValueError(f"every must be a positive number of planes; got {every!r}")
     total = len(stream) // window if method == "tfp" else None
     frames = baseline_frames(stream, method, window, every)
     first = next(frames, None)  # the generator's own checks run here, before any output exists

@@ -83,15 +83,22 @@ def _layer(module: str):
     return None if best is None else LAYERS[best]
 
 
-def _imports(path: Path, module: str):
-    """``(target module, names, line, deferred)`` for every import of a spikeref module."""
+def _import_nodes(path: Path):
+    """``(node, deferred)`` for every ``import`` / ``from … import`` of a file; deferred: inside a function."""
     tree = ast.parse(path.read_text())
-    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     deferred_nodes = set()
     for node in ast.walk(tree):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             deferred_nodes.update(id(n) for n in ast.walk(node))
     for node in ast.walk(tree):
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            yield node, id(node) in deferred_nodes
+
+
+def _imports(path: Path, module: str):
+    """``(target module, names, line, deferred)`` for every import of a spikeref module."""
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    for node, deferred in _import_nodes(path):
         if isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package.rsplit(".", node.level - 1)[0] if node.level > 1 else package
@@ -104,15 +111,15 @@ def _imports(path: Path, module: str):
                 names = []
                 for a in node.names:
                     if f"{target}.{a.name}" in MODULES:
-                        yield f"{target}.{a.name}", [], node.lineno, id(node) in deferred_nodes
+                        yield f"{target}.{a.name}", [], node.lineno, deferred
                     else:
                         names.append(a.name)
                 if names:
-                    yield target, names, node.lineno, id(node) in deferred_nodes
-        elif isinstance(node, ast.Import):
+                    yield target, names, node.lineno, deferred
+        else:
             for a in node.names:
                 if a.name == "spikeref" or a.name.startswith("spikeref."):
-                    yield a.name, [], node.lineno, id(node) in deferred_nodes
+                    yield a.name, [], node.lineno, deferred
 
 
 MODULES = dict(_modules())
@@ -209,20 +216,14 @@ OPTIONAL_EXTRAS = ("torch", "dask", "distributed", "bm3d", "skimage", "matplotli
 
 def _deferred_imports(path: Path):
     """``(top-level package, line)`` of every import made inside a function, other than the package's own."""
-    tree = ast.parse(path.read_text())
-    for fn in ast.walk(tree):
-        if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
-            for node in ast.walk(fn):
-                if isinstance(node, ast.ImportFrom) and not node.level:
-                    names = [node.module or ""]
-                elif isinstance(node, ast.Import):
-                    names = [a.name for a in node.names]
-                else:
-                    continue
-                for name in names:
-                    top = name.split(".")[0]
-                    if top != "spikeref":
-                        yield top, node.lineno
+    for node, deferred in _import_nodes(path):
+        if not deferred or (isinstance(node, ast.ImportFrom) and node.level):
+            continue
+        names = [node.module or ""] if isinstance(node, ast.ImportFrom) else [a.name for a in node.names]
+        for name in names:
+            top = name.split(".")[0]
+            if top != "spikeref":
+                yield top, node.lineno
 
 
 @pytest.mark.parametrize("module", sorted(m for m in MODULES if _layer(m) not in (5, "oracle")))

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from spikeref.bench.runner import METRICS
+from spikeref.bench.settings import Setting
 
 __all__ = ["pareto_front", "summarize", "stage_table", "markdown_report", "write_csv", "plot_pareto", "contact_sheet",
            "write_report"]
@@ -154,32 +155,31 @@ def _label_points(ax, summary: list[dict], cost: np.ndarray, score: np.ndarray, 
     few places beside its point and is left out when every one overlaps a label already drawn.
     """
     best = int(np.nanargmax(np.where(shown, score, -np.inf)))
+    defaults = Setting("ours", flow_frames="smoothed").name  # the package's defaults at 10/3/3
 
-    def priority(i):
+    def role(i):
+        """``(priority, label)`` of point ``i``, or None when it goes unlabelled."""
         r = summary[i]
         if not shown[i]:
             return None
         if r["method"] != "ours":
-            return 0
+            return 0, r["setting"]
+        if r["setting"] == defaults:
+            return 1, "defaults (10/3/3)"
         if r.get("warp") == "chained":
-            return 2
-        if r["setting"] == "ours visible W=10 K=3 L=3 smoothed-flow":
-            return 1
-        return 3 if i == best else 4 if front[i] else None
-
-    def name(r):
-        if r.get("warp") == "chained":
-            return "fast preset"
-        if r["setting"] == "ours visible W=10 K=3 L=3 smoothed-flow":
-            return "defaults (10/3/3)"
-        return r["setting"].replace("ours ", "").replace(" smoothed-flow", "")
+            return 2, "fast preset"
+        if i == best or front[i]:
+            return (3 if i == best else 4), r["setting"].replace("ours ", "").replace(" smoothed-flow", "")
+        return None
 
     renderer = ax.figure.canvas.get_renderer()
     inside = ax.get_window_extent(renderer)
     boxes = []
-    for _, i in sorted((p, i) for i in range(len(summary)) if (p := priority(i)) is not None):
+    roles = {i: r for i in range(len(summary)) if (r := role(i)) is not None}
+    for i in sorted(roles, key=lambda i: (roles[i][0], i)):
+        label = roles[i][1]
         for dx, dy, ha in ((5, -3, "left"), (5, 5, "left"), (-5, 5, "right"), (-5, -9, "right"), (5, -11, "left")):
-            t = ax.annotate(name(summary[i]), (cost[i], score[i]), fontsize=6.5, xytext=(dx, dy),
+            t = ax.annotate(label, (cost[i], score[i]), fontsize=6.5, xytext=(dx, dy),
                             textcoords="offset points", ha=ha)
             box = t.get_window_extent(renderer).expanded(1.05, 1.2)
             within = inside.x0 <= box.x0 and box.x1 <= inside.x1 and inside.y0 <= box.y0 and box.y1 <= inside.y1
@@ -204,11 +204,13 @@ def plot_pareto(summary: list[dict], path: Path) -> bool:
     cost = np.array([r["seconds_per_frame"] for r in summary])
     panels = (("psnr", "PSNR (dB)", False), ("psnr", "PSNR (dB), the top 1.5 dB", True), ("ssim", "SSIM", False),
               ("pu21_psnr", "PU21-PSNR (dB)", False))
+    drawn = []  # (ax, score, front, shown) of each panel, labelled once the layout is drawn
     for ax, (metric, label, zoom) in zip(axes, panels, strict=True):
         score = np.array([r[metric] for r in summary])
         front = pareto_front(cost, score)
         top = float(np.nanmax(score))
         shown = score >= top - 1.5 if zoom else np.ones(len(score), bool)
+        drawn.append((ax, score, front, shown))
         for r, c, s in zip(summary, cost, score, strict=True):
             col = colours.get(r["method"]) or mode_colours[r["mode"]]
             fast = r["method"] == "ours" and r.get("warp") == "chained"
@@ -227,10 +229,8 @@ def plot_pareto(summary: list[dict], path: Path) -> bool:
     fig.suptitle("What accuracy costs in time (mean over the benchmark scenes)")
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     fig.canvas.draw()  # the labels are placed against the drawn layout
-    for ax, (metric, _, zoom) in zip(axes, panels, strict=True):
-        score = np.array([r[metric] for r in summary])
-        shown = score >= float(np.nanmax(score)) - 1.5 if zoom else np.ones(len(score), bool)
-        _label_points(ax, summary, cost, score, pareto_front(cost, score), shown)
+    for ax, score, front, shown in drawn:
+        _label_points(ax, summary, cost, score, front, shown)
     handles = [plt.Line2D([], [], color=c, marker="o", ls="", label=k.upper()) for k, c in colours.items()]
     handles += [plt.Line2D([], [], color=c, marker="^", ls="", label=f"ours {k}") for k, c in mode_colours.items()]
     handles += [plt.Line2D([], [], color="k", marker="s", ls="", label="ours, no alignment"),
