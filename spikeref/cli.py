@@ -2,7 +2,8 @@
 
 Every subcommand prints ``--help`` with units and defaults.  Spike files are
 ``.dat`` (no header: give ``--height/--width``, or keep a ``NAME.json`` with
-``{"height":…, "width":…, "cfa":…}`` beside ``NAME.dat``), ``.npy`` or ``.npz``.
+``{"height":…, "width":…, "cfa":…}`` beside ``NAME.dat``), ``.npy`` or ``.npz`` (``--key`` names the
+``.npz`` array, ``--axes HWT`` reads planes-last arrays such as SpikingSIM's).
 """
 
 from __future__ import annotations
@@ -82,6 +83,18 @@ def _sigterm_as_interrupt():
 
 # ----------------------------------------------------------------------------- checks
 # Zero is a value like any other, never "not given": options left out are None.
+class _DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """argparse's "(default: X)" only where the help does not already say the default, and never "None"."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if action.default in (None, False, argparse.SUPPRESS) or "default" in text.lower():
+            return text
+        if isinstance(action.default, (tuple, list)):  # written as the option takes it: comma-separated
+            return f"{text} (default: {','.join(map(str, action.default))})"
+        return super()._get_help_string(action)
+
+
 def _check_int(value, flag: str, minimum: int = 1, what: str = "a positive whole number") -> None:
     """Refuse an integer option below ``minimum`` (``None``: not given, nothing to check)."""
     if value is not None and value < minimum:
@@ -143,16 +156,25 @@ def _bundled_weights_by_default(args, accumulate: str) -> None:
         args.weights = bundled_weights(accumulate).stem  # the bundled name, as a user would give it
 
 
-def _load_denoiser(weights, **kw):
-    """``Denoiser.load`` with a damaged weights file reported as one line (before any output is opened)."""
+def _load_denoiser(weights, *, accumulate: str | None = None, **kw):
+    """``Denoiser.load`` with a damaged weights file reported as one line (before any output is opened).
+
+    With ``accumulate`` (what the windows will give), a note when the weights were trained on the other
+    (their metadata's ``accumulate``; weights without it were trained on counts).
+    """
     import zipfile
 
     from spikeref.denoise.denoiser import Denoiser
 
     try:
-        return Denoiser.load(weights, **kw)
+        den = Denoiser.load(weights, **kw)
     except (zipfile.BadZipFile, EOFError, KeyError) as exc:
         raise CliError(f"--weights {weights}: not a readable weights .npz ({type(exc).__name__}: {exc})") from None
+    trained = den.unet.meta.get("accumulate", "count")
+    if accumulate is not None and trained != accumulate:
+        warnings.warn(f"--weights {weights} was trained on window {trained}s; the windows here give {accumulate}s "
+                      f"(--accumulate {accumulate}): expect a worse denoiser", UserWarning, stacklevel=2)
+    return den
 
 
 def _os_error_text(exc: OSError) -> str:
@@ -213,6 +235,12 @@ def _add_input_options(p: argparse.ArgumentParser, optional_file: bool = False) 
                         "(default from NAME.json, else mono)")
     p.add_argument("--rate-hz", type=float, default=None,
                    help="readout rate in planes per second (default 20000)")
+    p.add_argument("--key", default=None,
+                   help=".npz only: the key of the spike array (default 'spikes', else 'spk' as Spike-Zoo's, else the "
+                        "file's only array)")
+    p.add_argument("--axes", choices=["THW", "HWT"], default="THW",
+                   help=".npy/.npz only: the array's axis order, planes first (THW, default) or last (HWT, as "
+                        "SpikingSIM's samples); check the planes and size the status line prints")
 
 
 def _check_input_options(args) -> None:
@@ -224,14 +252,18 @@ def _check_input_options(args) -> None:
 
 def open_input(args):
     """Open the stream named by the parsed input options (sizes from the NAME.json sidecar if not given)."""
+    from spikeref.bayer import CFA_PATTERNS
     from spikeref.stream import open_spike_file
 
     _check_input_options(args)
     path = args.file if getattr(args, "file", None) is not None else SAMPLE
     if not path.exists():
         raise CliError(f"no such file: {path}")
-    return open_spike_file(path, height=args.height, width=args.width, cfa=args.cfa,
-                           file_width=args.file_width, rate_hz=args.rate_hz)
+    cfa = args.cfa
+    if cfa is not None and cfa.lower() != "mono" and cfa.upper() not in CFA_PATTERNS:
+        raise CliError(f"--cfa {cfa}: not a colour pattern; give one of {', '.join(CFA_PATTERNS)} or mono")
+    return open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
+                           file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
 
 
 # ------------------------------------------------------------------------------ info
@@ -261,11 +293,9 @@ def cmd_info(args) -> int:
 
     from spikeref.accumulate import window_counts
     from spikeref.bayer import bayer_planes
-    from spikeref.io.dat import plane_nbytes
-
     stream = open_input(args)  # a .dat is memory-mapped: nothing below reads spikes until the statistics
     t, h, w = stream.shape
-    plane_bytes = plane_nbytes(h, stream.file_width)
+    plane_bytes = -(-h * stream.file_width // 8)  # a .dat plane's bytes (whole there); an array's, rounded up
     print(f"file        {stream.path}")
     if stream.path is not None and Path(stream.path).is_file():
         print(f"file size   {Path(stream.path).stat().st_size} bytes")
@@ -321,7 +351,15 @@ def cmd_baseline(args) -> int:
             stream, args.method, args.output, exr_dir=args.exr_dir, window=args.window, every=args.every,
             fps=args.fps, half=args.half, progress=True,
         )
+    _say_written(args.output, args.exr_dir)
     return 0
+
+
+def _say_written(*paths) -> None:
+    """``wrote PATH`` on stderr for each output written (``None``: not asked for), as every writing command says."""
+    for path in paths:
+        if path is not None:
+            print(f"wrote {path}", file=sys.stderr)
 
 
 # -------------------------------------------------------------------------- denoise
@@ -351,7 +389,8 @@ def cmd_denoise(args) -> int:
     if args.frames is not None:
         total = min(total, args.frames)
     _bundled_weights_by_default(args, args.accumulate)
-    den = _load_denoiser(args.weights, mode=args.mode, lam=args.lam, shrink=not args.no_shrink, guard=args.guard)
+    den = _load_denoiser(args.weights, accumulate=args.accumulate, mode=args.mode, lam=args.lam,
+                         shrink=not args.no_shrink, guard=args.guard)
     frames = den.frames(stream, args.window, start=args.start, count=args.frames, accumulate=args.accumulate)
     first = next(frames, None)  # the generator's own checks (and the first frame) before any output is opened
     with _output_phase():
@@ -360,6 +399,7 @@ def cmd_denoise(args) -> int:
             for k, frame in itertools.chain([first] if first is not None else [], frames):
                 sink.add(k, frame)
                 bar.update(1)
+    _say_written(args.output, args.exr_dir)
     return 0
 
 
@@ -382,7 +422,10 @@ def _frames_in(args, avail: range, params) -> range:
     a, b = parse_frames_option(args.frames)
     a = avail.start if a is None else a
     b = avail.stop if b is None else b
-    if a < avail.start or b > avail.stop or a >= b:
+    if a >= b:
+        raise CliError(f"--frames {a}:{b}: an empty range (the first frame must come before the end, which is "
+                       f"excluded; this stream has frames {avail.start}:{avail.stop})")
+    if a < avail.start or b > avail.stop:
         raise CliError(f"--frames {a}:{b}: this stream has frames {avail.start}:{avail.stop} "
                        f"(W={args.window}, K={args.K}, L={args.L}: frame k needs windows k−{params.reach} … "
                        f"k+{params.reach})")
@@ -450,7 +493,7 @@ def cmd_reconstruct(args) -> int:
             raise CliError("--profile times one process; run without --workers/--scheduler")
         return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink)
     stream = open_input(args)
-    den = _load_denoiser(args.weights, mode=args.mode, shrink=shrink, guard=guard)
+    den = _load_denoiser(args.weights, accumulate=params.accumulate, mode=args.mode, shrink=shrink, guard=guard)
     rec = Reconstructor(stream, params, den)
     frames = _frames_in(args, rec.frames_available, params)
     a, b = frames.start, frames.stop
@@ -462,7 +505,7 @@ def cmd_reconstruct(args) -> int:
                   f"(first: {exr_name(bad[0])}); they are computed again", file=sys.stderr)
     fps_out = stream.rate_hz / args.window
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
-          f" → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
+          f" {stream.cfa or 'mono'} → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
           f"{'window charges' if params.accumulate == 'charge' else 'Eq. 4 counts'}, "
           f"{args.mode}{', no alignment' if args.no_align else ''}"
           f"{', the paper' + chr(39) + 's procedure' if args.paper else ''}"
@@ -492,9 +535,7 @@ def cmd_reconstruct(args) -> int:
             written = 0  # the folder itself is gone
         raise _stopped(args, exc, exr_dir, frames, written) from exc
     loop_s = time.perf_counter() - t_loop  # includes closing the video (its last frames are encoded there)
-    for path in (video, exr_dir):
-        if path is not None:
-            print(f"wrote {path}", file=sys.stderr)
+    _say_written(video, exr_dir)
     if args.profile:
         print(f"where the time went (frames made here: {rec.frames_made}; 'write' = EXR and video; "
               f"'other' = the rest of the loop, closing the video included):", file=sys.stderr)
@@ -525,7 +566,8 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
     if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
         raise CliError(f"--frames {frames.start}:{frames.stop} are outside this stream's frames "
                        f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
-    _load_denoiser(args.weights, mode=params.mode, guard=guard, shrink=shrink)  # refused here, not on every worker
+    # refused here, not on every worker
+    _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
                    "rate_hz": args.rate_hz}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"
@@ -905,7 +947,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("baseline", help="TFP / TFI / TFSTP reconstruction to MP4 (+ EXR frames)",
                        description="Reconstruct with a classic baseline (per Bayer plane, then bilinear "
                                    "demosaic Ψ for colour streams) and write a video and optionally EXR frames.",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=_DefaultsHelpFormatter)
     p.add_argument("method", choices=["tfp", "tfi", "tfstp"], help="baseline to run")
     _add_input_options(p, optional_file=True)
     p.add_argument("-o", "--output", type=Path, required=True, help="video file (.mp4 or .gif)")
@@ -922,7 +964,7 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Accumulate windows of W planes (Eq. 4), denoise the four Bayer planes with the "
                                    "self-supervised U-Net (§4.1; bundled weights unless --weights) and demosaic "
                                    "(Ψ). Frames are linear RGB in spikes per readout; the video uses one exposure.",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=_DefaultsHelpFormatter)
     _add_input_options(p, optional_file=True)
     p.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif)")
     p.add_argument("--exr-dir", type=Path, default=None, help="also write linear EXR frames here")
@@ -946,7 +988,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--weights", type=Path, default=None,
-                   help="weights .npz, or a bundled name: b2u_w16 (default) or b2u_w32 (slower, a little sharper)")
+                   help="weights .npz, or a bundled name: b2u_w16 (the default with counts) or b2u_w32 (counts; "
+                        "slower), pairs_w16_charge (the default with --accumulate charge) or b2u_w16_charge (charges, "
+                        "the paper's loss)")
     p.add_argument("--start", type=int, default=0, help="first plane")
     p.add_argument("--frames", type=int, default=None, help="number of frames (default: every whole window)")
     p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
@@ -964,7 +1008,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "it. Without FILE the embedded sample is used. Without -o/--exr-dir it writes "
                                    "reconstruction.mp4 and reconstruction_exr/. EXR frames are linear float RGB in "
                                    "spikes per readout, named frame_NNNNNN.exr by frame number.",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=_DefaultsHelpFormatter)
     _add_input_options(p, optional_file=True)
     p.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif), one exposure")
     p.add_argument("--exr-dir", type=Path, default=None, help="folder for linear EXR frames")
@@ -1047,7 +1091,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "results.md, contact_sheet.png and (with spikeref[plot]) pareto.png. "
                                    "The full grid (51 settings) takes ~10 min on 2 cores; --quick (15 settings, "
                                    "2 frames per scene) under 3 min.",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=_DefaultsHelpFormatter)
     p.add_argument("--quick", action="store_true",
                    help="the quick grid: L axis at K=3, W=10 plus K=5, W=20, no alignment, smoothed flow frames "
                         "one at a time at L=3; mixed and blind at L=0; 2 scored frames per scene")
@@ -1089,7 +1133,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "paper) trains by Noise2Noise pairs of windows of recordings of scenes that do "
                                    "not move, as the bundled charge network pairs_w16_charge was "
                                    "(scripts/train_denoiser.py).",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=_DefaultsHelpFormatter)
     p.add_argument("data", type=Path, nargs="+", help="spike files (.dat with NAME.json, .npy, .npz), colour or mono")
     p.add_argument("-o", "--output", type=Path, required=True, help="weights file to write (.npz)")
     p.add_argument("--channels", type=int, default=16, help="U-Net channel width C")
@@ -1133,7 +1177,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "the spikes as .dat with a NAME.json sidecar. Time is in readouts (planes) at "
                                    "the camera's rate (20 000 planes/s by default). Ground truth is the mean linear "
                                    "RGB radiance over each window, in rate units (spikes per readout).",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=_DefaultsHelpFormatter)
     p.add_argument("scene", type=Path, help="scene file (.toml), e.g. examples/scenes/fan.toml")
     p.add_argument("-o", "--output", type=Path, required=True, help="spike file to write (.dat)")
     p.add_argument("--gt", type=Path, default=None,
@@ -1160,7 +1204,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "pooled): its mean absolute value and standard deviation over frames and "
                                    "pixels. E[I_c] is each pixel's rate over the whole span (the longest "
                                    "window). Pixels with fewer than 20 spikes in the span are left out.",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                       formatter_class=_DefaultsHelpFormatter)
     _add_input_options(p, optional_file=True)
     p.add_argument("--windows", type=_int_list, default=DEFAULT_WINDOWS,
                    help="window lengths W in planes, comma-separated (5 planes = 0.25 ms at 20 kHz)")
@@ -1263,6 +1307,11 @@ def main(argv=None) -> int:
                 raise
             print(f"spikeref {args.command}: {exc}", file=sys.stderr)
             return exc.status
+        except BrokenPipeError:
+            # the reader of our output went away (`spikeref info | head -1`): nothing is wrong, say nothing
+            with contextlib.suppress(OSError):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+            return 0
         except KeyboardInterrupt as exc:
             if debug:
                 raise

@@ -20,7 +20,7 @@ import numpy as np
 from spikeref.bayer import validate_cfa
 from spikeref.io.dat import check_spikes, map_dat, plane_nbytes, read_sidecar, unpack_planes
 
-__all__ = ["SpikeStream", "as_stream", "read_dat", "load_spikes", "open_spike_file"]
+__all__ = ["SpikeStream", "as_stream", "read_dat", "load_spikes", "open_spike_file", "NPZ_SPIKE_KEYS", "ARRAY_AXES"]
 
 
 class SpikeStream:
@@ -294,39 +294,62 @@ def _optional_rate(name: str, value):
     return float(value)
 
 
-def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, **kw):
+#: The ``.npz`` keys :func:`load_spikes` takes for the spikes when none is named, in this order (``spk`` is
+#: Spike-Zoo's).
+NPZ_SPIKE_KEYS = ("spikes", "spk")
+#: The axis orders an array file may have: ``THW`` (planes first, the package's) or ``HWT`` (SpikingSIM's).
+ARRAY_AXES = ("THW", "HWT")
+
+
+def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, *,
+                key: str | None = None, axes: str = "THW", **kw):
     """Open a spike file by its suffix: ``.dat`` (memory-mapped), ``.npy`` or ``.npz``.
 
-    ``.npy`` holds a ``(T, H, W)`` array; ``.npz`` a key ``spikes`` (or a
-    single array).  For ``.dat`` the size must be given; ``None`` (not given) means the
-    default 250×400, and 0 is refused (ValueError naming the argument).
+    ``.npy`` holds one array; ``.npz`` the array ``key``, by default the first of :data:`NPZ_SPIKE_KEYS`
+    it has, else its only array.  ``axes`` says how that array is ordered: ``"THW"`` (planes first) or
+    ``"HWT"`` (planes last, as SpikingSIM's samples); the stream is always ``(T, H, W)``.  For ``.dat``
+    the size must be given; ``None`` (not given) means the default 250×400, and 0 is refused
+    (ValueError naming the argument); ``key`` and ``axes`` are for array files only.
     """
-
-
     path = Path(path)
     suffix = path.suffix.lower()
     height, width = _optional_count("height", height), _optional_count("width", width)
+    if axes not in ARRAY_AXES:
+        raise ValueError(f"axes must be one of {', '.join(ARRAY_AXES)}; got {axes!r}")
+    if key is not None and not isinstance(key, str):
+        raise TypeError(f"key must be a string or None; got {type(key).__name__}")
     if not path.is_file():
         raise FileNotFoundError(f"no such spike file: {path}")
     if suffix == ".dat":
+        if key is not None or axes != "THW":
+            raise ValueError(f"{path}: key and axes are for .npy/.npz files; a .dat file is planes of rows")
         return read_dat(path, 250 if height is None else height, 400 if width is None else width, cfa, **kw)
     if suffix == ".npy":
+        if key is not None:
+            raise ValueError(f"{path}: a .npy file holds one array; key is for .npz files")
         arr = np.load(path, mmap_mode="r")
     elif suffix == ".npz":
         with np.load(path) as data:
             keys = list(data.files)
-            key = "spikes" if "spikes" in keys else (keys[0] if len(keys) == 1 else None)
             if key is None:
-                raise ValueError(f"{path}: expected a key 'spikes' or a single array; found keys {keys}")
+                key = next((k for k in NPZ_SPIKE_KEYS if k in keys), keys[0] if len(keys) == 1 else None)
+                if key is None:
+                    raise ValueError(f"{path}: no key {' or '.join(map(repr, NPZ_SPIKE_KEYS))} and more than one "
+                                     f"array; found keys {keys}: name the spikes' key")
+            elif key not in keys:
+                raise ValueError(f"{path}: no key {key!r}; found keys {keys}")
             arr = data[key]
     else:
         raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")
+    if axes == "HWT" and np.ndim(arr) == 3:
+        arr = np.moveaxis(arr, -1, 0)
     arr = check_spikes(arr, name=f"spikes in {path.name}")
     return SpikeStream.from_array(arr, cfa=cfa, path=path, **{k: v for k, v in kw.items() if k == "rate_hz"})
 
 
 def open_spike_file(path, height: int | None = None, width: int | None = None, cfa: str | None = None,
-                    file_width: int | None = None, rate_hz: float | None = None):
+                    file_width: int | None = None, rate_hz: float | None = None, key: str | None = None,
+                    axes: str = "THW"):
     """Open a spike file, taking what is not given from its ``NAME.json`` sidecar (``.dat``).
 
     Arguments override the sidecar; without either, ``.dat`` defaults to 250×400 mono at
@@ -343,6 +366,9 @@ def open_spike_file(path, height: int | None = None, width: int | None = None, c
         Bayer pattern (``"RGGB"`` …) or ``"mono"``; ``None`` means not given.
     rate_hz : float or None
         Readout rate, planes per second; ``None`` means not given (the sidecar's, else 20 000).
+    key, axes : str
+        For ``.npy``/``.npz`` files: the ``.npz`` key of the spikes and the array's axis order
+        (:func:`load_spikes`).
 
     Raises
     ------
@@ -361,5 +387,6 @@ def open_spike_file(path, height: int | None = None, width: int | None = None, c
     if path.suffix.lower() == ".dat":
         kw["file_width"] = file_width if file_width is not None else meta.get("file_width")
         return load_spikes(path, height=height if height is not None else meta.get("height", 250),
-                           width=width if width is not None else meta.get("width", 400), cfa=cfa, **kw)
-    return load_spikes(path, cfa=cfa, **kw)
+                           width=width if width is not None else meta.get("width", 400), cfa=cfa, key=key,
+                           axes=axes, **kw)
+    return load_spikes(path, cfa=cfa, key=key, axes=axes, **kw)

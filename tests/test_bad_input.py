@@ -43,7 +43,7 @@ CLI_CASES = [
     ("odd height for a Bayer file", lambda d: ["reconstruct", str(_dat(d)), "--height", "1", "--width", "64",
                                                "--cfa", "RGGB", "-L", "0", "--exr-dir", str(d / "o")], "even"),
     ("unknown CFA", lambda d: ["info", str(_dat(d)), "--height", "8", "--width", "8", "--cfa", "RGBX"],
-     "cfa must be one of"),
+     "--cfa RGBX: not a colour pattern; give one of RGGB, BGGR, GRBG, GBRG or mono"),
     ("K even", lambda d: ["reconstruct", "-K", "2", "-o", str(d / "o.mp4")], "K must be odd"),
     ("L negative", lambda d: ["reconstruct", "-L", "-1", "-o", str(d / "o.mp4")], "L must be an integer ≥ 0"),
     ("W zero", lambda d: ["reconstruct", "-W", "0", "-o", str(d / "o.mp4")], "window must be an integer ≥ 1"),

@@ -77,8 +77,9 @@ def test_info_sample_and_stats_agree_on_a_uniform_file(tmp_path, monkeypatch, ca
     assert "statistics  over all 5000 planes" in full and "R: 1.00000" in full and "B: 0.50000" in full
 
 
-def test_baseline_tfp_writes_video_and_exr(tmp_path):
+def test_baseline_tfp_writes_video_and_exr(tmp_path, capsys):
     assert main(["baseline", "tfp", "-o", str(tmp_path / "v.mp4"), "--exr-dir", str(tmp_path / "exr"), "-W", "20"]) == 0
+    assert capsys.readouterr().err.splitlines()[-2:] == [f"wrote {tmp_path / 'v.mp4'}", f"wrote {tmp_path / 'exr'}"]
     assert (tmp_path / "v.mp4").stat().st_size > 1000
     names = sorted(p.name for p in (tmp_path / "exr").iterdir())
     assert len(names) == 264 // 20 and names[0] == "frame_000000.exr"
@@ -93,7 +94,7 @@ def test_baseline_tfp_writes_video_and_exr(tmp_path):
         (["baseline", "tfp", "-o", "out.avi"], "must end in .mp4 or .gif"),
         (["baseline", "tfp", "-o", "v.mp4", "-W", "0"], "window must be a positive"),
         (["baseline", "tfp", "-o", "v.mp4", "-W", "100000"], "longer than the stream"),
-        (["info", "--cfa", "RGB"], "cfa must be one of"),
+        (["info", "--cfa", "RGB"], "--cfa RGB: not a colour pattern; give one of RGGB, BGGR, GRBG, GBRG or mono"),
         (["simulate", "missing.toml", "-o", "x.dat"], "no such scene file"),
         (["simulate", str(SCENES / "fan.toml"), "-o", "x.dat", "--effects", "glare"], "unknown effect 'glare'"),
         (["simulate", str(SCENES / "fan.toml"), "-o", "x.dat", "--effects", "dark_current:gamma"],
@@ -232,6 +233,7 @@ def test_resume_recomputes_empty_truncated_and_foreign_frames(tmp_path, random_w
 
 @pytest.mark.parametrize("extra, message", [
     (["--frames", "0:5"], "this stream has frames 3:23"),
+    (["--frames", "5:3"], "--frames 5:3: an empty range"),
     (["--frames", "5"], "--frames must look like a:b"),
     (["-K", "2"], "K must be odd"),
     (["-W", "0"], "window must be an integer ≥ 1"),
@@ -246,11 +248,67 @@ def test_reconstruct_bad_input(tmp_path, random_weights, capsys, extra, message)
     assert not out.exists()
 
 
-def test_no_shrink_gives_the_papers_denoiser(tmp_path):
+def test_no_shrink_gives_the_papers_denoiser(tmp_path, capsys):
     """`denoise --no-shrink` writes Ψ[D(I)] without the residual shrinkage; the default differs from it."""
     outs = {}
     for flag in ([], ["--no-shrink"]):
         d = tmp_path / ("plain" if flag else "shrunk")
         assert main(["denoise", "-W", "50", "--guard", "off", "--exr-dir", str(d), *flag]) == 0
+        assert capsys.readouterr().err.splitlines()[-1] == f"wrote {d}"
         outs[bool(flag)] = read_exr(sorted(d.glob("*.exr"))[0])
     assert outs[True].shape == outs[False].shape and not np.array_equal(outs[True], outs[False])
+
+
+def test_array_files_by_key_and_axis_order(tmp_path, capsys):
+    """`--key` picks an .npz array (Spike-Zoo's ``spk`` without it); `--axes HWT` reads planes-last arrays."""
+    spikes = (np.random.default_rng(0).random((40, 16, 24)) < 0.2).astype(np.uint8)
+    np.savez(tmp_path / "zoo.npz", spk=spikes, label=np.zeros(3))
+    np.savez(tmp_path / "sim.npz", arr_0=np.ascontiguousarray(np.moveaxis(spikes, 0, -1)))
+    assert main(["info", str(tmp_path / "zoo.npz")]) == 0
+    out = capsys.readouterr().out
+    assert "planes      40" in out and "size        16 × 24 pixels" in out
+    assert main(["info", str(tmp_path / "sim.npz"), "--axes", "HWT"]) == 0
+    out = capsys.readouterr().out
+    assert "planes      40" in out and "size        16 × 24 pixels" in out
+    assert main(["info", str(tmp_path / "sim.npz")]) == 0  # planes first: 16 planes of 24×40, as stored
+    assert "planes      16" in capsys.readouterr().out
+    assert main(["info", str(tmp_path / "zoo.npz"), "--key", "nope"]) == 2
+    assert "no key 'nope'; found keys ['spk', 'label']" in capsys.readouterr().err
+
+
+def test_help_never_shows_a_none_default(capsys):
+    """The defaults formatter adds "(default: X)" only where the help has not said it, and never "None"."""
+    import contextlib
+
+    for cmd in ("reconstruct", "denoise", "baseline", "simulate", "noise-check", "bench", "train"):
+        with contextlib.suppress(SystemExit):
+            main([cmd, "--help"])
+        text = " ".join(capsys.readouterr().out.split())
+        assert "(default: None)" not in text, cmd
+        assert "(default: False)" not in text, cmd
+    with contextlib.suppress(SystemExit):
+        main(["noise-check", "--help"])
+    assert "(default: 5,10,20,50,100" in " ".join(capsys.readouterr().out.split())
+
+
+def test_a_closed_pipe_ends_quietly():
+    """`spikeref info | head -1`: the reader leaves early; no "Broken pipe" error, exit status 0."""
+    import subprocess
+    import sys
+
+    code = "import sys; from spikeref.cli import main; sys.exit(main(['info']))"
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader is gone before info writes its first line (its imports take longer)
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, err
+    assert "Broken pipe" not in err and "Traceback" not in err
+
+
+def test_weights_trained_on_the_other_window_quantity_get_a_note(tmp_path, capsys):
+    """Count-trained weights on window charges (or the reverse) run, with a one-line note saying so."""
+    argv = ["denoise", "-W", "50", "--frames", "1", "--guard", "off", "--exr-dir"]
+    assert main([*argv, str(tmp_path / "a"), "--accumulate", "charge", "--weights", "b2u_w16"]) == 0
+    assert ("spikeref denoise: note: --weights b2u_w16 was trained on window counts; the windows here give charges"
+            in capsys.readouterr().err)
+    assert main([*argv, str(tmp_path / "b"), "--accumulate", "charge"]) == 0  # the bundled charge network
+    assert "note" not in capsys.readouterr().err

@@ -81,3 +81,31 @@ def test_slice_is_a_view_with_a_shifted_window_grid(rng):
             stream.slice(30, 41)
         with pytest.raises(ValueError, match="at least 1 plane"):
             stream.slice(20, 20)
+
+
+def test_load_spikes_key_and_axes(tmp_path):
+    """``.npz`` keys in the order of NPZ_SPIKE_KEYS, a named key, and planes-last arrays (SpikingSIM's)."""
+    from spikeref.stream import NPZ_SPIKE_KEYS, load_spikes
+
+    assert NPZ_SPIKE_KEYS == ("spikes", "spk")
+    spikes = (np.random.default_rng(1).random((12, 4, 6)) < 0.3).astype(np.uint8)
+    hwt = np.ascontiguousarray(np.moveaxis(spikes, 0, -1))
+    np.savez(tmp_path / "two.npz", spk=spikes, other=spikes[:2])
+    np.savez(tmp_path / "hwt.npz", arr_0=hwt)
+    np.save(tmp_path / "hwt.npy", hwt)
+    np.testing.assert_array_equal(load_spikes(tmp_path / "two.npz").window(0, 12), spikes)
+    np.testing.assert_array_equal(load_spikes(tmp_path / "two.npz", key="other").window(0, 2), spikes[:2])
+    for name in ("hwt.npz", "hwt.npy"):
+        stream = load_spikes(tmp_path / name, axes="HWT")
+        assert stream.shape == (12, 4, 6)
+        np.testing.assert_array_equal(stream.window(0, 12), spikes)
+        assert load_spikes(tmp_path / name).shape == (4, 6, 12)  # as stored: planes first
+    np.savez(tmp_path / "many.npz", a=spikes, b=spikes)
+    with pytest.raises(ValueError, match=r"no key 'spikes' or 'spk' and more than one array; found keys \['a', 'b'\]"):
+        load_spikes(tmp_path / "many.npz")
+    with pytest.raises(ValueError, match=r"no key 'c'; found keys \['a', 'b'\]"):
+        load_spikes(tmp_path / "many.npz", key="c")
+    with pytest.raises(ValueError, match="axes must be one of THW, HWT; got 'TWH'"):
+        load_spikes(tmp_path / "hwt.npz", axes="TWH")
+    with pytest.raises(ValueError, match="a .npy file holds one array"):
+        load_spikes(tmp_path / "hwt.npy", key="spikes")
