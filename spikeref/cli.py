@@ -363,6 +363,31 @@ def _say_written(*paths) -> None:
 
 
 # -------------------------------------------------------------------------- denoise
+def _denoise_frames(text: str | None, total: int) -> range:
+    """``denoise --frames``: ``a:b`` (frame numbers, b excluded, as ``reconstruct``'s) or ``N`` (= ``0:N``),
+    inside the ``total`` whole windows from ``--start``; a count past the end is cut to the end."""
+    if text is None:
+        return range(total)
+    text = str(text).strip()
+    if ":" not in text:
+        try:
+            n = int(text)
+        except ValueError:
+            raise CliError(f"--frames must be a:b (frame numbers, b excluded) or a number of frames; "
+                           f"got {text!r}") from None
+        _check_int(n, "--frames", 1, "a positive number of frames")
+        return range(min(n, total))
+    a, b = parse_frames_option(text)
+    a = 0 if a is None else a
+    b = total if b is None else b
+    if a >= b:
+        raise CliError(f"--frames {a}:{b}: an empty range (the first frame must come before the end, which is "
+                       f"excluded; there are frames 0:{total} from --start)")
+    if a < 0 or b > total:
+        raise CliError(f"--frames {a}:{b}: there are frames 0:{total} (whole windows from --start)")
+    return range(a, b)
+
+
 def cmd_denoise(args) -> int:
     import itertools
 
@@ -376,7 +401,6 @@ def cmd_denoise(args) -> int:
     _check_output_dir(args.exr_dir, "--exr-dir")
     _check_int(args.window, "-W/--window", 1, "a positive number of planes")
     _check_int(args.start, "--start", 0, "a plane index ≥ 0")
-    _check_int(args.frames, "--frames", 1, "a positive number of frames")
     _check_float(args.lam, "--lam", positive=False)
     _check_float(args.fps, "--fps")
     stream = open_input(args)
@@ -386,18 +410,18 @@ def cmd_denoise(args) -> int:
     if total < 1:
         raise CliError(f"no whole window of {args.window} planes from plane {args.start} "
                        f"(the stream has {len(stream)} planes)")
-    if args.frames is not None:
-        total = min(total, args.frames)
+    frames = _denoise_frames(args.frames, total)
     _bundled_weights_by_default(args, args.accumulate)
     den = _load_denoiser(args.weights, accumulate=args.accumulate, mode=args.mode, lam=args.lam,
                          shrink=not args.no_shrink, guard=args.guard)
-    frames = den.frames(stream, args.window, start=args.start, count=args.frames, accumulate=args.accumulate)
-    first = next(frames, None)  # the generator's own checks (and the first frame) before any output is opened
+    made = den.frames(stream, args.window, start=args.start + frames.start * args.window, count=len(frames),
+                      accumulate=args.accumulate)
+    first = next(made, None)  # the generator's own checks (and the first frame) before any output is opened
     with _output_phase():
         with FrameSink(args.output, args.exr_dir, fps=args.fps, half=args.half) as sink, \
-                tqdm(total=total, desc=f"denoise ({args.mode})", unit="frame", disable=None) as bar:
-            for k, frame in itertools.chain([first] if first is not None else [], frames):
-                sink.add(k, frame)
+                tqdm(total=len(frames), desc=f"denoise ({args.mode})", unit="frame", disable=None) as bar:
+            for k, frame in itertools.chain([first] if first is not None else [], made):
+                sink.add(frames.start + k, frame)  # frame k covers planes start + kW … start + (k + 1)W − 1
                 bar.update(1)
     _say_written(args.output, args.exr_dir)
     return 0
@@ -992,7 +1016,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "slower), pairs_w16_charge (the default with --accumulate charge) or b2u_w16_charge (charges, "
                         "the paper's loss)")
     p.add_argument("--start", type=int, default=0, help="first plane")
-    p.add_argument("--frames", type=int, default=None, help="number of frames (default: every whole window)")
+    p.add_argument("--frames", default=None,
+                   help="frame numbers a:b (b excluded; frame k is planes start + kW … start + (k+1)W − 1), or N for "
+                        "the first N (default: every whole window)")
     p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
     p.add_argument("--half", action="store_true", help="write float16 EXR (default float32)")
     p.set_defaults(func=cmd_denoise)

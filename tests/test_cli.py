@@ -312,3 +312,21 @@ def test_weights_trained_on_the_other_window_quantity_get_a_note(tmp_path, capsy
             in capsys.readouterr().err)
     assert main([*argv, str(tmp_path / "b"), "--accumulate", "charge"]) == 0  # the bundled charge network
     assert "note" not in capsys.readouterr().err
+
+
+def test_denoise_frames_takes_a_range_like_reconstruct(tmp_path, capsys):
+    """`denoise --frames a:b` writes frames a … b−1 (the same frames a longer run writes); N means 0:N."""
+    argv = ["denoise", "-W", "20", "--guard", "off", "--exr-dir"]
+    assert main([*argv, str(tmp_path / "all"), "--frames", "4"]) == 0
+    assert main([*argv, str(tmp_path / "part"), "--frames", "2:4"]) == 0
+    names = sorted(p.name for p in (tmp_path / "part").iterdir())
+    assert names == ["frame_000002.exr", "frame_000003.exr"]
+    for name in names:
+        np.testing.assert_array_equal(read_exr(tmp_path / "part" / name), read_exr(tmp_path / "all" / name))
+    capsys.readouterr()
+    assert main([*argv, str(tmp_path / "x"), "--frames", "3:2"]) == 2
+    assert "--frames 3:2: an empty range" in capsys.readouterr().err
+    assert main([*argv, str(tmp_path / "x"), "--frames", "10:99"]) == 2
+    assert "--frames 10:99: there are frames 0:13" in capsys.readouterr().err
+    assert main([*argv, str(tmp_path / "x"), "--frames", "two"]) == 2
+    assert "--frames must be a:b" in capsys.readouterr().err
