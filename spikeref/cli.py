@@ -338,6 +338,8 @@ def cmd_info(args) -> int:
 def cmd_baseline(args) -> int:
     from spikeref.render import render_baseline
 
+    if args.output is None and args.exr_dir is None:  # as reconstruct: a video and its EXR frames, named here
+        args.output, args.exr_dir = Path(f"{args.method}.mp4"), Path(f"{args.method}_exr")
     _check_video(args.output)
     _check_output_dir(args.exr_dir, "--exr-dir")
     _check_int(args.window, "-W/--window", 1, "a positive number of planes")
@@ -395,8 +397,8 @@ def cmd_denoise(args) -> int:
 
     from spikeref.render import FrameSink
 
-    if args.output is None and args.exr_dir is None:
-        raise CliError("give -o VIDEO, --exr-dir DIR, or both")
+    if args.output is None and args.exr_dir is None:  # as reconstruct: a video and its EXR frames, named here
+        args.output, args.exr_dir = Path("denoised.mp4"), Path("denoised_exr")
     _check_video(args.output)
     _check_output_dir(args.exr_dir, "--exr-dir")
     _check_int(args.window, "-W/--window", 1, "a positive number of planes")
@@ -970,11 +972,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("baseline", help="TFP / TFI / TFSTP reconstruction to MP4 (+ EXR frames)",
                        description="Reconstruct with a classic baseline (per Bayer plane, then bilinear "
-                                   "demosaic Ψ for colour streams) and write a video and optionally EXR frames.",
+                                   "demosaic Ψ for colour streams) and write a video and/or EXR frames (without "
+                                   "-o/--exr-dir: METHOD.mp4 and METHOD_exr/).",
                        formatter_class=_DefaultsHelpFormatter)
     p.add_argument("method", choices=["tfp", "tfi", "tfstp"], help="baseline to run")
     _add_input_options(p, optional_file=True)
-    p.add_argument("-o", "--output", type=Path, required=True, help="video file (.mp4 or .gif)")
+    p.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif)")
     p.add_argument("--exr-dir", type=Path, default=None, help="also write linear EXR frames here")
     p.add_argument("-W", "--window", type=int, default=10,
                    help="TFP window in planes (10 planes = 0.5 ms at 20 kHz → 2000 FPS)")
@@ -987,7 +990,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("denoise", help="denoised colour frames Ψ[D(I)] of a spike file to MP4 / EXR",
                        description="Accumulate windows of W planes (Eq. 4), denoise the four Bayer planes with the "
                                    "self-supervised U-Net (§4.1; bundled weights unless --weights) and demosaic "
-                                   "(Ψ). Frames are linear RGB in spikes per readout; the video uses one exposure.",
+                                   "(Ψ). Frames are linear RGB in spikes per readout; the video uses one exposure. "
+                                   "Without -o/--exr-dir it writes denoised.mp4 and denoised_exr/.",
                        formatter_class=_DefaultsHelpFormatter)
     _add_input_options(p, optional_file=True)
     p.add_argument("-o", "--output", type=Path, default=None, help="video file (.mp4 or .gif)")
@@ -1030,7 +1034,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(§4.1) and aligned (HDR+ tiles); "
                                    "step 1 warps the spike planes of K windows (Eq. 14), steps 2…L warp K frames of "
                                    "the previous step (Eq. 15). One frame per window: 20000/W FPS; frame k is "
-                                   "centred on window k (planes kW…(k+1)W) and needs ((K−1)L+1)·W planes around "
+                                   "centred on window k (planes kW … (k+1)W − 1) and needs ((K−1)L+1)·W planes around "
                                    "it. Without FILE the embedded sample is used. Without -o/--exr-dir it writes "
                                    "reconstruction.mp4 and reconstruction_exr/. EXR frames are linear float RGB in "
                                    "spikes per readout, named frame_NNNNNN.exr by frame number.",

@@ -330,3 +330,18 @@ def test_denoise_frames_takes_a_range_like_reconstruct(tmp_path, capsys):
     assert "--frames 10:99: there are frames 0:13" in capsys.readouterr().err
     assert main([*argv, str(tmp_path / "x"), "--frames", "two"]) == 2
     assert "--frames must be a:b" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, written", [
+    (["denoise", "-W", "50", "--frames", "2", "--guard", "off"], ["denoised.mp4", "denoised_exr"]),
+    (["baseline", "tfp", "-W", "50"], ["tfp.mp4", "tfp_exr"]),
+    (["baseline", "tfi", "--every", "50", "--exr-dir", "only"], ["only"]),
+])
+def test_commands_without_outputs_write_named_defaults(tmp_path, monkeypatch, capsys, argv, written):
+    """As `reconstruct`: without -o/--exr-dir a video and its EXR frames under names of the command's own."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == written
+    assert capsys.readouterr().err.splitlines()[-len(written):] == [f"wrote {name}" for name in written]
+    exrs = sorted((tmp_path / written[-1]).glob("*.exr"))
+    assert exrs and np.isfinite(read_exr(exrs[0])).all()
