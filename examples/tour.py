@@ -21,7 +21,7 @@ when ``../shared/data/real/`` is there.  One section per idea of the paper (Yang
 
 Writes ``NN_name.png`` into ``--out`` (default ``docs/tour``) and the page that shows them with
 the equations and the measured numbers, ``<out>.md`` beside that folder (``docs/tour.md``).
-Run from the repository root (about a minute on two cores once the Numba kernels are compiled)::
+Run from the repository root (about 10 s on two cores once the Numba kernels are compiled)::
 
     python examples/tour.py [--out docs/tour] [--small]
 
@@ -646,7 +646,7 @@ def main(argv=None) -> list[Path]:
     ap.add_argument("--out", type=Path, default=ROOT / "docs" / "tour",
                     help="folder of the figures; the page is written beside it as <out>.md")
     ap.add_argument("--small", action="store_true",
-                    help="every figure at a reduced size (the test's run: seconds instead of a minute)")
+                    help="every figure at a reduced size (the test's run)")
     args = ap.parse_args(argv)
     try:
         import matplotlib  # noqa: F401

@@ -537,6 +537,7 @@ def cmd_reconstruct(args) -> int:
           f"{', the paper' + chr(39) + 's procedure' if args.paper else ''}"
           f"{', the fast preset' if preset == 'fast' else ''}"
           f"{', flow on ' + params.flow_frames + ' frames, ' + params.warp + ' warp' if not args.no_align else ''}"
+          f"{', Malvar–He–Cutler demosaic' if params.demosaic == 'mhc' else ''}"
           f", guard {guard}, weights {Path(str(args.weights)).stem})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
     written = len(done)  # whole EXR frames of a:b in exr_dir, for the line of an interrupted or failed run

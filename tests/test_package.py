@@ -1,6 +1,7 @@
 """The package's public names: every one resolves, and the functions that share a name with
 their module (``accumulate``, ``align``, ``noise_check``) stay callable in any import order
-(a defect the stability suite found: importing the submodule replaced the function); compiling a
+(a defect the stability suite found: importing the submodule replaced the function; ``simulate`` is a
+subpackage whose function the README calls after ``sr.load_scene``); compiling a
 kernel writes nothing inside the package (the Numba cache is per user, :mod:`spikeref._jit`)."""
 
 import subprocess
@@ -22,6 +23,9 @@ assert sr.align(tex, tex).shape == (2, 64, 64)
 r = sr.noise_check(SpikeStream.from_array(np.ones((400, 4, 4), np.uint8)), windows=(10, 20))
 import spikeref.accumulate as m
 assert callable(m.window_counts) and m.accumulate is not None
+from spikeref.sample import SAMPLE_SCENE
+scene = sr.load_scene(SAMPLE_SCENE)  # imports the subpackage spikeref.simulate, which Python binds to sr.simulate
+assert sr.simulate(scene, seed=0, planes=20).spikes.shape == (20, 224, 256)
 print("ok")
 """
 
@@ -29,6 +33,17 @@ print("ok")
 def test_every_public_name_resolves():
     for name in sr.__all__:
         assert getattr(sr, name) is not None, name
+
+
+def test_the_child_covers_every_public_function_named_like_a_submodule():
+    """A public function that shares its name with a submodule is shadowed when that submodule is imported:
+    each such name is exercised by CHILD (README's `sr.load_scene(...)` then `sr.simulate(...)` found one)."""
+    import pkgutil
+
+    submodules = {m.name for m in pkgutil.iter_modules(sr.__path__)}
+    shared = sorted(name for name in sr.__all__ if name in submodules)
+    assert shared == ["accumulate", "align", "noise_check", "simulate"]
+    assert all(f"sr.{name}(" in CHILD for name in shared)
 
 
 def test_functions_named_like_their_module_are_callable_whatever_was_imported_first():

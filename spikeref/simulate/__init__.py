@@ -22,3 +22,7 @@ __all__ = [
     "SimulationResult",
     "simulate_to_dat",
 ]
+
+from spikeref._callable import make_module_callable  # noqa: E402
+
+make_module_callable(__name__, "simulate")  # `sr.simulate(...)` works after any import of this subpackage
