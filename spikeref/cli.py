@@ -506,8 +506,13 @@ def cmd_reconstruct(args) -> int:
     args.paper = preset == "paper"
     chosen = {k: v for k, v in (("flow_frames", args.flow_frames), ("warp", args.warp),
                                 ("demosaic", args.demosaic), ("accumulate", args.accumulate)) if v is not None}
+    if args.no_denoiser:
+        chosen["denoise"] = False
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,
                                       align=not args.no_align, **chosen)
+    if not params.denoise and args.weights is not None:
+        raise CliError(f"{'--no-denoiser' if args.no_denoiser else '--preset ' + preset} runs no network: "
+                       f"--weights does not apply")
     _bundled_weights_by_default(args, params.accumulate)
     _check_float(args.fps, "--fps")
     _check_video(video)
@@ -519,7 +524,8 @@ def cmd_reconstruct(args) -> int:
             raise CliError("--profile times one process; run without --workers/--scheduler")
         return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink)
     stream = open_input(args)
-    den = _load_denoiser(args.weights, accumulate=params.accumulate, mode=args.mode, shrink=shrink, guard=guard)
+    den = _load_denoiser(args.weights, accumulate=params.accumulate, mode=args.mode, shrink=shrink,
+                         guard=guard) if params.denoise else None
     rec = Reconstructor(stream, params, den)
     frames = _frames_in(args, rec.frames_available, params)
     a, b = frames.start, frames.stop
@@ -530,15 +536,16 @@ def cmd_reconstruct(args) -> int:
             print(f"{len(bad)} frame files in {exr_dir} are empty, unreadable or of another size "
                   f"(first: {exr_name(bad[0])}); they are computed again", file=sys.stderr)
     fps_out = stream.rate_hz / args.window
+    parts = [f"W={args.window}, K={args.K}, L={args.L}",
+             "window charges" if params.accumulate == "charge" else "Eq. 4 counts"]
+    parts += [args.mode] if params.denoise else []
+    parts += ["no alignment"] if args.no_align else [f"flow on {params.flow_frames} frames", f"{params.warp} warp"]
+    parts += ["the paper's procedure"] if args.paper else []
+    parts += [f"the {preset} preset"] if preset in ("fast", "fastest") else []
+    parts += ["Malvar–He–Cutler demosaic"] if params.demosaic == "mhc" else []
+    parts += [f"guard {guard}", f"weights {Path(str(args.weights)).stem}"] if params.denoise else ["no denoiser"]
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
-          f" {stream.cfa or 'mono'} → frames {a}:{b} at {fps_out:g} FPS (W={args.window}, K={args.K}, L={args.L}, "
-          f"{'window charges' if params.accumulate == 'charge' else 'Eq. 4 counts'}, "
-          f"{args.mode}{', no alignment' if args.no_align else ''}"
-          f"{', the paper' + chr(39) + 's procedure' if args.paper else ''}"
-          f"{', the fast preset' if preset == 'fast' else ''}"
-          f"{', flow on ' + params.flow_frames + ' frames, ' + params.warp + ' warp' if not args.no_align else ''}"
-          f"{', Malvar–He–Cutler demosaic' if params.demosaic == 'mhc' else ''}"
-          f", guard {guard}, weights {Path(str(args.weights)).stem})"
+          f" {stream.cfa or 'mono'} → frames {a}:{b} at {fps_out:g} FPS ({', '.join(parts)})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
     written = len(done)  # whole EXR frames of a:b in exr_dir, for the line of an interrupted or failed run
     t_loop = time.perf_counter()
@@ -593,8 +600,8 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
     if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
         raise CliError(f"--frames {frames.start}:{frames.stop} are outside this stream's frames "
                        f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
-    # refused here, not on every worker
-    _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
+    if params.denoise:  # refused here, not on every worker
+        _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
                    "rate_hz": args.rate_hz}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"
@@ -1053,11 +1060,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the paper's procedure exactly: flows on the denoised frames, the plain HDR+ search, "
                         "Eq. 14-15 step by step, the network's D(I) without guard or shrinkage (the defaults go "
                         "beyond the paper where the stage ladder measured a gain: docs/results.md)")
-    p.add_argument("--preset", choices=["default", "fast", "paper"], default=None,
+    p.add_argument("--preset", choices=["default", "fast", "fastest", "paper"], default=None,
                    help="named settings (options given with it win): default (the defaults below); fast (the "
                         "defaults with --warp chained: only the step-0 flows estimated and composed, ≥ 8 frames/s "
                         "at 250×400 on two cores and within 0.5 dB of the defaults on the benchmark scenes, "
-                        "docs/results.md); paper (= --paper)")
+                        "docs/results.md); fastest (fast with --no-denoiser: about 4× the defaults' frames/s, within "
+                        "0.1 dB of them on the benchmark's and held-out means, 0.4 dB under in low light); "
+                        "paper (= --paper)")
+    p.add_argument("--no-denoiser", action="store_true",
+                   help="D is the identity: no network pass, no weights (not in the paper; with window charges the "
+                        "network gains about 0.05 dB on the benchmark's mean for half the frame time: docs/results.md)")
     p.add_argument("--profile", action="store_true",
                    help="after the run, print to stderr where the time went: seconds, %% of the run's time and "
                         "milliseconds per frame for accumulate (Eq. 4), network (the U-Net's passes), guard (the "

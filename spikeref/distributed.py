@@ -163,7 +163,8 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
         stop_plane = min(chunk.stop_plane, len(stream))  # a charge's margin may reach past the end
         view = stream.slice(chunk.first_plane, stop_plane)
         shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
-        rec = Reconstructor(view, params, _denoiser(weights, params.mode, params.accumulate, guard, shrink))
+        den = _denoiser(weights, params.mode, params.accumulate, guard, shrink) if params.denoise else None
+        rec = Reconstructor(view, params, den)
         for a, b in todo:
             for frame in rec.frames(a - shift, b - shift):
                 write_exr(out / exr_name(frame.index + shift), frame.rgb, half=half)

@@ -127,7 +127,7 @@ FLOW_SMOOTHING_SIGMA = 1.0
 #: Named settings of :meth:`ReconstructParams.preset` (``spikeref reconstruct --preset``):
 #: ``"default"`` (the defaults), ``"fast"`` (:meth:`ReconstructParams.fast`), ``"paper"``
 #: (:meth:`ReconstructParams.paper`).
-PRESETS = ("default", "fast", "paper")
+PRESETS = ("default", "fast", "fastest", "paper")
 #: ``ReconstructParams.accumulate`` of the default reconstruction: the window charge (:mod:`spikeref.charge`;
 #: not in the paper, whose Eq. 4 count :meth:`ReconstructParams.paper` keeps), chosen on the stage ladder
 #: (docs/results.md); callers that load the bundled network for it ask here.
@@ -191,6 +191,12 @@ class ReconstructParams:
         :data:`spikeref.charge.DEFAULT_MARGIN` readouts beyond the support, and without a
         denoiser named the pipeline loads the bundled network trained on charges
         (:func:`spikeref.denoise.denoiser.bundled_weights`).
+    denoise : bool
+        Denoise (default) or not: ``False`` makes ``D`` the identity, so no network runs and no
+        weights are loaded (a denoiser given to :class:`Reconstructor` is not used).  Not in the
+        paper: the stage ladder's "no denoiser" rung, a speed option (:meth:`fastest`).  With
+        window charges the network buys little (``docs/results.md``, "The denoiser's share of
+        the time"), at half the frame time.
     """
 
     window: int = 10
@@ -203,6 +209,7 @@ class ReconstructParams:
     warp: str = "composed"
     demosaic: str = "bilinear"
     accumulate: str = DEFAULT_ACCUMULATE
+    denoise: bool = True
 
     def __post_init__(self):
         for name, low in (("window", 1), ("K", 1), ("L", 0)):
@@ -223,6 +230,8 @@ class ReconstructParams:
             raise ValueError(f"demosaic must be one of {', '.join(DEMOSAICS)}; got {self.demosaic!r}")
         if self.accumulate not in ACCUMULATE:
             raise ValueError(f"accumulate must be one of {', '.join(ACCUMULATE)}; got {self.accumulate!r}")
+        if not isinstance(self.denoise, (bool, np.bool_)):
+            raise TypeError(f"denoise must be True or False; got {self.denoise!r}")
 
     @property
     def half(self) -> int:
@@ -264,8 +273,21 @@ class ReconstructParams:
         return cls(**base)
 
     @classmethod
+    def fastest(cls, **kw) -> "ReconstructParams":
+        """The fast preset without a denoiser: ``fast(denoise=False)``; ``kw`` sets any other field.
+
+        No network pass at all: at W/K/L = 10/3/3 and 250×400 about 4× the defaults' frames/s on two
+        cores, within 0.1 dB of them on the means of the benchmark and held-out scenes, 0.4 dB under
+        them in low light (``docs/results.md``, "The denoiser's share of the time").
+        """
+        base = dict(warp="chained", denoise=False)
+        base.update(kw)
+        return cls(**base)
+
+    @classmethod
     def preset(cls, name: str, **kw) -> "ReconstructParams":
-        """The named preset of :data:`PRESETS` (``"default"``, ``"fast"``, ``"paper"``) with ``kw`` set.
+        """The named preset of :data:`PRESETS` (``"default"``, ``"fast"``, ``"fastest"``, ``"paper"``) with
+        ``kw`` set.
 
         Raises
         ------
@@ -274,7 +296,7 @@ class ReconstructParams:
         """
         if name not in PRESETS:
             raise ValueError(f"preset must be one of {', '.join(PRESETS)}; got {name!r}")
-        return {"default": cls, "fast": cls.fast, "paper": cls.paper}[name](**kw)
+        return {"default": cls, "fast": cls.fast, "fastest": cls.fastest, "paper": cls.paper}[name](**kw)
 
 
 def default_align_params() -> AlignParams:
@@ -428,7 +450,8 @@ class Reconstructor:
     params : ReconstructParams
     denoiser : Denoiser or callable, optional
         ``D``; default the bundled weights (:meth:`Denoiser.load`).  A callable takes Bayer
-        planes ``(4, h, w) float32`` and returns the same shape.
+        planes ``(4, h, w) float32`` and returns the same shape.  Not used (nothing is loaded)
+        with ``params.denoise=False``.
     """
 
     def __init__(self, stream: SpikeStream, params: ReconstructParams | None = None, denoiser=None):
@@ -460,6 +483,8 @@ class Reconstructor:
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray]:
+        if not self.params.denoise:  # D is the identity: no network, no weights
+            return lambda planes, exposure, final, short=None: planes
         if denoiser is None:  # the bundled network trained on what the windows give
             denoiser = Denoiser.load(bundled_weights(self.params.accumulate))
         if isinstance(denoiser, Denoiser):
@@ -609,7 +634,8 @@ class _State:
                 final = step == self.p.L
                 # charges: the guard measures the noise on the reference window's own charge and carries it
                 # to the exposure (spikeref.denoise.guard.carried_excess_variance), as denoise mode does
-                short = self.planes(0, k) if final and step > 0 and self.p.accumulate == "charge" else None
+                short = self.planes(0, k) if (final and step > 0 and self.p.accumulate == "charge"
+                                              and self.p.denoise) else None
                 out = np.asarray(self.rec._denoise(entry[0], exposure, final, short), dtype=np.float32)
             if out.shape != entry[0].shape:
                 raise ValueError(f"the denoiser returned shape {out.shape} for planes {entry[0].shape}")

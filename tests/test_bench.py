@@ -18,8 +18,11 @@ def test_full_and_quick_grids():
     full = grid_settings(FULL_GRID)
     names = [s.name for s in full]
     # baselines; visible W×K×L×(align on × 2 flow frames + off), L=0 once per W: 2 + 2·2·3·3 = 38; mixed+blind
-    assert len(names) == len(set(names)) == 4 + 38 + 1 + 8
+    assert len(names) == len(set(names)) == 4 + 38 + 2 + 8
     assert "ours visible W=10 K=3 L=3 smoothed-flow (fast preset)" in names
+    assert "ours visible W=10 K=3 L=3 smoothed-flow (fastest preset)" in names
+    assert Setting("ours", flow_frames="smoothed", denoise=False).name == "ours visible W=10 K=3 L=3 smoothed-flow " \
+        "no-denoiser"
     assert "ours visible W=20 K=5 L=3 no-align" in names and "ours blind W=10 K=3 L=3" in names
     assert "ours visible W=20 K=5 L=3 smoothed-flow" in names and "ours visible W=10 L=0" in names
     assert not any("no-align" in n and "smoothed" in n for n in names)  # no flow, nothing to smooth
@@ -30,7 +33,8 @@ def test_full_and_quick_grids():
                      "ours visible W=10 K=3 L=2", "ours visible W=10 K=3 L=3", "ours visible W=10 K=5 L=3",
                      "ours visible W=20 K=3 L=3", "ours visible W=10 K=3 L=3 no-align",
                      "ours visible W=10 K=3 L=3 smoothed-flow", "ours visible W=10 K=3 L=3 smoothed-flow (fast preset)",
-                     "ours mixed W=10 L=0", "ours blind W=10 L=0"]
+                     "ours visible W=10 K=3 L=3 smoothed-flow (fastest preset)", "ours mixed W=10 L=0",
+                     "ours blind W=10 L=0"]
     only = grid_settings(parse_grid(methods=["tfi", "ours"], modes=["blind"], L=[0, 2]))
     assert [s.name for s in only] == ["TFI", "ours blind W=10 L=0", "ours blind W=10 K=3 L=2"]
 

@@ -190,6 +190,24 @@ def test_reconstruct_fast_preset_and_profile(tmp_path, random_weights, capsys):
     assert "the paper's procedure" in err and "where the time went" not in err
 
 
+def test_reconstruct_without_a_denoiser(tmp_path, capsys):
+    """--preset fastest and --no-denoiser run no network; the two agree with the API's ReconstructParams."""
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+    from spikeref.sample import load_sample
+
+    assert main(["reconstruct", "--exr-dir", str(tmp_path / "f"), "--frames", "3:5", "--preset", "fastest",
+                 "--profile"]) == 0
+    err = capsys.readouterr().err
+    assert "the fastest preset, no denoiser)" in err and "weights" not in err.splitlines()[0]
+    assert "\nnetwork         0.000" in err
+    assert main(["reconstruct", "--exr-dir", str(tmp_path / "n"), "--frames", "3:4", "--no-denoiser"]) == 0
+    assert "composed warp, no denoiser)" in capsys.readouterr().err
+    want = next(iter(Reconstructor(load_sample(), ReconstructParams.fastest()).frames(3, 4))).rgb
+    np.testing.assert_allclose(read_exr(tmp_path / "f" / "frame_000003.exr"), want, rtol=1e-6)
+    assert main(["reconstruct", "-o", str(tmp_path / "x.mp4"), "--no-denoiser", "--weights", "b2u_w16"]) == 2
+    assert "--no-denoiser runs no network: --weights does not apply" in capsys.readouterr().err
+
+
 def test_reconstruct_with_flow_on_smoothed_frames(tmp_path, random_weights, capsys):
     argv = ["reconstruct", "--exr-dir", str(tmp_path / "s"), "--frames", "3:5", "--weights", str(random_weights)]
     assert main([*argv, "--flow-frames", "smoothed"]) == 0

@@ -122,7 +122,7 @@ BAD = [
      "--width must be a positive"),
     # ---- reconstruct (without -o/--exr-dir it would write reconstruction.mp4 and reconstruction_exr/)
     ("reconstruct: --preset turbo", lambda d: ["reconstruct", "--preset", "turbo", "--frames", "3:4"],
-     "invalid choice: 'turbo' (choose from 'default', 'fast', 'paper')"),
+     "invalid choice: 'turbo' (choose from 'default', 'fast', 'fastest', 'paper')"),
     ("reconstruct: --paper with --preset fast", lambda d: ["reconstruct", "--paper", "--preset", "fast"],
      "--paper is --preset paper"),
     ("reconstruct: --profile with --workers", lambda d: ["reconstruct", "--profile", "--workers", "2"],

@@ -45,7 +45,7 @@ def summarize(rows: list[dict]) -> list[dict]:
         rs = [r for r in rows if r["setting"] == name]
         first = rs[0]
         row = {k: first.get(k, "") for k in ("setting", "method", "W", "K", "L", "mode", "align", "flow_frames",
-                                              "warp")}
+                                              "warp", "denoise")}
         for m in (*METRICS, "seconds_per_frame", "warmup_s"):
             row[m] = float(np.mean([r[m] for r in rs]))
         for k in _stage_keys(first):
@@ -150,7 +150,7 @@ def _label_points(ax, summary: list[dict], cost: np.ndarray, score: np.ndarray, 
                   shown: np.ndarray) -> None:
     """Name the points a reader looks for, with no label over another.
 
-    In order of priority: the baselines, the package's defaults at 10/3/3, the fast preset, the best score,
+    In order of priority: the baselines, the package's defaults at 10/3/3, the fast presets, the best score,
     then the rest of the Pareto front (``shown``: the points inside the panel's limits).  Each label tries a
     few places beside its point and is left out when every one overlaps a label already drawn.
     """
@@ -167,7 +167,7 @@ def _label_points(ax, summary: list[dict], cost: np.ndarray, score: np.ndarray, 
         if r["setting"] == defaults:
             return 1, "defaults (10/3/3)"
         if r.get("warp") == "chained":
-            return 2, "fast preset"
+            return 2, "fast preset" if r.get("denoise") != "off" else "fastest preset"
         if i == best or front[i]:
             return (3 if i == best else 4), r["setting"].replace("ours ", "").replace(" smoothed-flow", "")
         return None
@@ -214,7 +214,7 @@ def plot_pareto(summary: list[dict], path: Path) -> bool:
         for r, c, s in zip(summary, cost, score, strict=True):
             col = colours.get(r["method"]) or mode_colours[r["mode"]]
             fast = r["method"] == "ours" and r.get("warp") == "chained"
-            marker = "o" if r["method"] != "ours" else "*" if fast else \
+            marker = "o" if r["method"] != "ours" else ("*" if r.get("denoise") != "off" else "P") if fast else \
                 ("s" if r["align"] == "off" else "D" if r["flow_frames"] == "smoothed" else "^")
             ax.scatter(c, s, color=col, marker=marker, s=110 if fast else 28, alpha=0.8, zorder=3 if fast else 2)
         order = np.argsort(cost[front])
@@ -236,6 +236,8 @@ def plot_pareto(summary: list[dict], path: Path) -> bool:
     handles += [plt.Line2D([], [], color="k", marker="s", ls="", label="ours, no alignment"),
                 plt.Line2D([], [], color="k", marker="D", ls="", label="ours, flow on smoothed frames"),
                 plt.Line2D([], [], color="k", marker="*", ls="", markersize=10, label="ours, fast preset"),
+                plt.Line2D([], [], color="k", marker="P", ls="", markersize=9,
+                           label="ours, fastest preset (no denoiser)"),
                 plt.Line2D([], [], color="k", lw=1, label="Pareto front")]
     axes[0].legend(handles=handles, fontsize=7, loc="lower right")
     from spikeref.io.atomic import atomic_write

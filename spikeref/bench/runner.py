@@ -199,7 +199,8 @@ def run_setting(setting: Setting, stream, centres: list[int], denoiser=None,
         if accumulate is not None:
             extra["accumulate"] = accumulate
         params = ReconstructParams(window=w, K=setting.K, L=setting.L, mode=setting.mode, align=setting.align,
-                                   flow_frames=setting.flow_frames, warp=setting.warp, **extra)
+                                   flow_frames=setting.flow_frames, warp=setting.warp, denoise=setting.denoise,
+                                   **extra)
         rec = Reconstructor(view, params, denoiser)
         wanted = set(ks)
         t0 = time.perf_counter()
@@ -301,6 +302,7 @@ def run_bench(grid: BenchGrid, seed: int = 0, denoiser=None, progress: bool = Tr
                        "align": ("on" if s.align else "off") if s.method == "ours" else "",
                        "flow_frames": s.flow_frames if s.method == "ours" and s.align and s.L else "",
                        "warp": s.warp if s.method == "ours" and s.align and s.L else "",
+                       "denoise": ("on" if s.denoise else "off") if s.method == "ours" else "",
                        **{m: float(np.mean([sc_[m] for sc_ in scores])) for m in METRICS},
                        **timing, "frames": len(frames), "height": sc.stream.height, "width": sc.stream.width}
                 rows.append(row)

@@ -15,8 +15,9 @@ axis takes; :func:`grid_settings` expands it:
 * the costly modes (``mixed`` runs 17 network passes per frame, ``blind`` 16) along
   ``expensive_L`` at the first ``W, K, align, flow_frames``;
 * the fast preset (:meth:`~spikeref.pipeline.ReconstructParams.fast`: smoothed flow frames and
-  the chained warp) at the first ``W, K`` and the largest ``L`` (≥ 2; at ``L = 1`` it is the
-  composed warp), when the grid runs ``visible`` with alignment on (``fast_preset=True``).
+  the chained warp) and the fastest (:meth:`~spikeref.pipeline.ReconstructParams.fastest`: the
+  same without a denoiser) at the first ``W, K`` and the largest ``L`` (≥ 2; at ``L = 1`` it is
+  the composed warp), when the grid runs ``visible`` with alignment on (``fast_preset=True``).
 """
 
 from __future__ import annotations
@@ -54,6 +55,9 @@ class Setting:
     warp : {"composed", "chained"}
         How the output is warped (:class:`~spikeref.pipeline.ReconstructParams`); ``"chained"``
         with smoothed flow frames is the fast preset.
+    denoise : bool
+        Whether the method denoises (:class:`~spikeref.pipeline.ReconstructParams`); the fast
+        preset without it is the fastest preset.
     """
 
     method: str
@@ -64,6 +68,7 @@ class Setting:
     align: bool = True
     flow_frames: str = "denoised"
     warp: str = "composed"
+    denoise: bool = True
 
     @property
     def name(self) -> str:
@@ -76,9 +81,11 @@ class Setting:
         suffix = "" if self.align else " no-align"
         if self.align and self.flow_frames != "denoised":
             suffix = f" {self.flow_frames}-flow"
+        preset = self.warp == "chained" and self.flow_frames == "smoothed"
         if self.warp != "composed":
-            suffix += " (fast preset)" if self.warp == "chained" and self.flow_frames == "smoothed" \
-                else f" {self.warp}-warp"
+            suffix += (" (fast preset)" if self.denoise else " (fastest preset)") if preset else f" {self.warp}-warp"
+        if not self.denoise and not preset:
+            suffix += " no-denoiser"
         return f"ours {self.mode} W={self.window} K={self.K} L={self.L}" + suffix
 
 
@@ -127,11 +134,11 @@ def _check_values(name: str, values, allowed) -> None:
         raise ValueError(f"{name} lists a value twice: {_fmt(values)}")
 
 
-#: Every axis in full (`spikeref bench`): 4 baselines + 38 visible + the fast preset + 8 mixed/blind settings.
+#: Every axis in full (`spikeref bench`): 4 baselines + 38 visible + the two fast presets + 8 mixed/blind settings.
 FULL_GRID = BenchGrid()
 #: `spikeref bench --quick`: the L axis, then K = 5, W = 20, no alignment and smoothed flow frames one
 #: at a time at L = 3;
-#: the fast preset; mixed and blind at L = 0 only; two scored frames per scene.
+#: the two fast presets; mixed and blind at L = 0 only; two scored frames per scene.
 QUICK_GRID = BenchGrid(expensive_L=(0,), visible_product=False, frames=2)
 
 
@@ -161,8 +168,8 @@ def grid_settings(grid: BenchGrid) -> list[Setting]:
                 cand += [ours(mode, w0, k0, top, a, f0) for a in grid.align[1:]]
                 cand += [ours(mode, w0, k0, top, True, f) for f in grid.flow_frames[1:]]
             if grid.fast_preset and max(grid.L) >= 2 and True in grid.align:
-                cand.append(Setting("ours", window=w0, K=k0, L=max(grid.L), mode=mode, align=True,
-                                    flow_frames="smoothed", warp="chained"))
+                cand += [Setting("ours", window=w0, K=k0, L=max(grid.L), mode=mode, align=True,
+                                 flow_frames="smoothed", warp="chained", denoise=d) for d in (True, False)]
         else:
             cand = [ours(mode, w0, k0, level, a0, f0) for level in grid.expensive_L]
         for s in cand:
