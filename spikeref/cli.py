@@ -13,6 +13,7 @@ import contextlib
 import errno
 import math
 import os
+import select
 import shlex
 import signal
 import sys
@@ -88,7 +89,8 @@ class _DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
-        if action.default in (None, False, argparse.SUPPRESS) or "default" in text.lower():
+        if action.default is None or action.default is False or action.default == argparse.SUPPRESS \
+                or "default" in text.lower():
             return text
         if isinstance(action.default, (tuple, list)):  # written as the option takes it: comma-separated
             return f"{text} (default: {','.join(map(str, action.default))})"
@@ -172,7 +174,8 @@ def _load_denoiser(weights, *, accumulate: str | None = None, **kw):
         raise CliError(f"--weights {weights}: not a readable weights .npz ({type(exc).__name__}: {exc})") from None
     trained = den.unet.meta.get("accumulate", "count")
     if accumulate is not None and trained != accumulate:
-        warnings.warn(f"--weights {weights} was trained on window {trained}s; the windows here give {accumulate}s "
+        what = {"count": "Eq. 4 windows (counts)", "charge": "window charges"}
+        warnings.warn(f"--weights {weights} was trained on {what[trained]}; the windows here give {what[accumulate]} "
                       f"(--accumulate {accumulate}): expect a worse denoiser", UserWarning, stacklevel=2)
     return den
 
@@ -240,7 +243,7 @@ def _add_input_options(p: argparse.ArgumentParser, optional_file: bool = False) 
                         "file's only array)")
     p.add_argument("--axes", choices=["THW", "HWT"], default="THW",
                    help=".npy/.npz only: the array's axis order, planes first (THW, default) or last (HWT, as "
-                        "SpikingSIM's samples); check the planes and size the status line prints")
+                        "SpikingSIM's samples); `spikeref info FILE` prints the planes and size it reads")
 
 
 def _check_input_options(args) -> None:
@@ -510,9 +513,12 @@ def cmd_reconstruct(args) -> int:
         chosen["denoise"] = False
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,
                                       align=not args.no_align, **chosen)
-    if not params.denoise and args.weights is not None:
-        raise CliError(f"{'--no-denoiser' if args.no_denoiser else '--preset ' + preset} runs no network: "
-                       f"--weights does not apply")
+    if not params.denoise:
+        given = [flag for flag, on in (("--weights", args.weights is not None), ("--guard", args.guard is not None),
+                                       ("--no-shrink", args.no_shrink)) if on]
+        if given:
+            raise CliError(f"{'--no-denoiser' if args.no_denoiser else '--preset ' + preset} runs no network: "
+                           f"{' and '.join(given)} {'does' if len(given) == 1 else 'do'} not apply")
     _bundled_weights_by_default(args, params.accumulate)
     _check_float(args.fps, "--fps")
     _check_video(video)
@@ -603,7 +609,7 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
     if params.denoise:  # refused here, not on every worker
         _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
-                   "rate_hz": args.rate_hz}
+                   "rate_hz": args.rate_hz, "key": args.key, "axes": args.axes}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"
     print(f"{stream.path.name}: frames {frames.start}:{frames.stop} in chunks of {args.chunk_frames} on {where}"
           f" → {exr_dir}", file=sys.stderr)
@@ -1132,7 +1138,7 @@ def build_parser() -> argparse.ArgumentParser:
                                    "against the 2000-FPS ground truth (PSNR, SSIM, PU21-PSNR, PU21-SSIM) and "
                                    "timed in seconds per output frame in this process. Writes results.csv, "
                                    "results.md, contact_sheet.png and (with spikeref[plot]) pareto.png. "
-                                   "The full grid (51 settings) takes ~10 min on 2 cores; --quick (15 settings, "
+                                   "The full grid (52 settings) takes ~5 min on 2 cores; --quick (16 settings, "
                                    "2 frames per scene) under 3 min.",
                        formatter_class=_DefaultsHelpFormatter)
     p.add_argument("--quick", action="store_true",
@@ -1350,7 +1356,12 @@ def main(argv=None) -> int:
                 raise
             print(f"spikeref {args.command}: {exc}", file=sys.stderr)
             return exc.status
-        except BrokenPipeError:
+        except BrokenPipeError as exc:
+            if not _stdout_closed():  # a pipe of our own (not the reader of our output) broke: an error
+                if debug:
+                    raise
+                print(f"spikeref {args.command}: error: {exc}", file=sys.stderr)
+                return 2
             # the reader of our output went away (`spikeref info | head -1`): nothing is wrong, say nothing
             with contextlib.suppress(OSError):
                 os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
@@ -1366,6 +1377,23 @@ def main(argv=None) -> int:
                 raise
             print(f"spikeref {args.command}: error: {exc}", file=sys.stderr)
             return getattr(exc, "status", 2)
+
+
+def _stdout_closed() -> bool:
+    """Whether the reader of standard output has gone: a flush raises ``BrokenPipeError``, or (nothing left to
+    flush) polling the pipe reports an error."""
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        return True
+    except (OSError, ValueError):
+        return False
+    try:
+        poll = select.poll()
+        poll.register(sys.stdout.fileno(), select.POLLOUT)
+        return any(events & select.POLLERR for _, events in poll.poll(0))
+    except (AttributeError, OSError, ValueError):  # no poll (Windows), or no real file behind stdout
+        return False
 
 
 def _one_line_notes(command: str, show):

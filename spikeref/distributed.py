@@ -205,9 +205,10 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         defaults, which go beyond the paper where ``docs/results.md`` measured a gain;
         ``ReconstructParams.paper()`` for the paper's procedure).
     open_kwargs : dict
-        ``height, width, cfa, file_width, rate_hz`` for :func:`spikeref.stream.open_spike_file`.
+        ``height, width, cfa, file_width, rate_hz, key, axes`` for :func:`spikeref.stream.open_spike_file`.
     weights : path or bundled name, optional
-        Denoiser weights (default: the bundled network for ``params.accumulate``).
+        Denoiser weights (default: the bundled network for ``params.accumulate``; none is loaded with
+        ``params.denoise=False``).
     guard : {"sure", "off"}
         The denoiser's guard on the output (:class:`spikeref.denoise.denoiser.Denoiser`; default
         ``"sure"``, as :func:`spikeref.pipeline.reconstruct`; ``"off"`` for the paper's ``D``).
@@ -257,8 +258,8 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
         raise ValueError(f"frames {frames.start}:{frames.stop} are outside this stream's frames "
                          f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
-    # a bad weights file or denoiser option fails here, not on every worker
-    _denoiser(weights, params.mode, params.accumulate, guard, shrink)
+    if params.denoise:  # a bad weights file or denoiser option fails here, not on every worker
+        _denoiser(weights, params.mode, params.accumulate, guard, shrink)
     exr_dir = Path(exr_dir).resolve()
     exr_dir.mkdir(parents=True, exist_ok=True)
     chunks = plan_chunks(frames, params, chunk_frames)

@@ -484,6 +484,9 @@ class Reconstructor:
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray]:
         if not self.params.denoise:  # D is the identity: no network, no weights
+            if denoiser is not None and not (isinstance(denoiser, Denoiser) or callable(denoiser)):
+                raise TypeError(f"denoiser must be a Denoiser or a callable on (4, h, w) planes; "
+                                f"got {type(denoiser).__name__}")
             return lambda planes, exposure, final, short=None: planes
         if denoiser is None:  # the bundled network trained on what the windows give
             denoiser = Denoiser.load(bundled_weights(self.params.accumulate))

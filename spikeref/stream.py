@@ -341,7 +341,10 @@ def load_spikes(path, height: int | None = None, width: int | None = None, cfa: 
             arr = data[key]
     else:
         raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")
-    if axes == "HWT" and np.ndim(arr) == 3:
+    if axes == "HWT":
+        if np.ndim(arr) != 3:
+            raise ValueError(f"spikes in {path.name} must have shape (H, W, T) with axes='HWT'; got shape "
+                             f"{np.shape(arr)}")
         arr = np.moveaxis(arr, -1, 0)
     arr = check_spikes(arr, name=f"spikes in {path.name}")
     return SpikeStream.from_array(arr, cfa=cfa, path=path, **{k: v for k, v in kw.items() if k == "rate_hz"})

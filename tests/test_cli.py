@@ -206,6 +206,9 @@ def test_reconstruct_without_a_denoiser(tmp_path, capsys):
     np.testing.assert_allclose(read_exr(tmp_path / "f" / "frame_000003.exr"), want, rtol=1e-6)
     assert main(["reconstruct", "-o", str(tmp_path / "x.mp4"), "--no-denoiser", "--weights", "b2u_w16"]) == 2
     assert "--no-denoiser runs no network: --weights does not apply" in capsys.readouterr().err
+    assert main(["reconstruct", "-o", str(tmp_path / "x.mp4"), "--preset", "fastest", "--guard", "off",
+                 "--no-shrink"]) == 2
+    assert "--preset fastest runs no network: --guard and --no-shrink do not apply" in capsys.readouterr().err
 
 
 def test_reconstruct_with_flow_on_smoothed_frames(tmp_path, random_weights, capsys):
@@ -306,7 +309,9 @@ def test_help_never_shows_a_none_default(capsys):
         assert "(default: False)" not in text, cmd
     with contextlib.suppress(SystemExit):
         main(["noise-check", "--help"])
-    assert "(default: 5,10,20,50,100" in " ".join(capsys.readouterr().out.split())
+    text = " ".join(capsys.readouterr().out.split())
+    assert "(default: 5,10,20,50,100" in text
+    assert "first plane of the analysed span (default: 0)" in text  # 0 is a default shown, not "not given"
 
 
 def test_a_closed_pipe_ends_quietly():
@@ -326,8 +331,8 @@ def test_weights_trained_on_the_other_window_quantity_get_a_note(tmp_path, capsy
     """Count-trained weights on window charges (or the reverse) run, with a one-line note saying so."""
     argv = ["denoise", "-W", "50", "--frames", "1", "--guard", "off", "--exr-dir"]
     assert main([*argv, str(tmp_path / "a"), "--accumulate", "charge", "--weights", "b2u_w16"]) == 0
-    assert ("spikeref denoise: note: --weights b2u_w16 was trained on window counts; the windows here give charges"
-            in capsys.readouterr().err)
+    assert ("spikeref denoise: note: --weights b2u_w16 was trained on Eq. 4 windows (counts); the windows here give "
+            "window charges" in capsys.readouterr().err)
     assert main([*argv, str(tmp_path / "b"), "--accumulate", "charge"]) == 0  # the bundled charge network
     assert "note" not in capsys.readouterr().err
 

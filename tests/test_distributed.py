@@ -129,6 +129,12 @@ def test_cli_passes_the_denoiser_options_to_the_workers(recording, tmp_path, mon
     assert seen["params"] == ReconstructParams() and (seen["guard"], seen["shrink"]) == ("off", False)
     assert main(["reconstruct", str(path), "--workers", "1", "--exr-dir", str(tmp_path / "g")]) == 0
     assert (seen["guard"], seen["shrink"]) == ("sure", True)
+    # an array file's key and axis order reach the workers, which open the file again
+    spikes = (np.random.default_rng(0).random((16, 16, 80)) < 0.3).astype(np.uint8)
+    np.savez(tmp_path / "hwt.npz", s=spikes, other=spikes[:1])
+    assert main(["reconstruct", str(tmp_path / "hwt.npz"), "--key", "s", "--axes", "HWT", "--workers", "1",
+                 "--exr-dir", str(tmp_path / "h")]) == 0
+    assert (seen["open_kwargs"]["key"], seen["open_kwargs"]["axes"]) == ("s", "HWT")
 
 
 @pytest.fixture(scope="module")
@@ -156,6 +162,21 @@ def test_two_worker_processes_write_bit_identical_frames(recording, client, tmp_
     again = reconstruct_distributed(path, tmp_path, client=client, chunk_frames=3, resume=True, progress=False)
     assert [(s["chunk"], s["written"], s["skipped"]) for s in again] == [(1, 1, 2)]
     _assert_identical(tmp_path, single)
+
+
+def test_without_a_denoiser_no_weights_are_read(recording, client, tmp_path):
+    """``params.denoise=False``: the weights are neither checked nor loaded; the frames are the single process's."""
+    from spikeref.pipeline import Reconstructor
+    from spikeref.stream import open_spike_file
+
+    path, _ = recording
+    params = ReconstructParams.fastest()
+    summaries = reconstruct_distributed(path, tmp_path, params, weights=tmp_path / "missing.npz", client=client,
+                                        frames=range(3, 5), chunk_frames=2, progress=False)
+    assert sum(s["written"] for s in summaries) == 2
+    want = [f.rgb for f in Reconstructor(open_spike_file(path), params).frames(3, 5)]
+    for k, w in zip((3, 4), want, strict=True):
+        np.testing.assert_allclose(read_exr(tmp_path / exr_name(k)), w, rtol=1e-6, atol=1e-7)
 
 
 def test_worker_error_names_the_chunk(recording, client, tmp_path):

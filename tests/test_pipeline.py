@@ -529,6 +529,8 @@ def test_without_a_denoiser_the_network_never_runs(sample):
         want = [f.rgb for f in Reconstructor(sample, params, lambda p: p).frames(a, a + 2)]
         for g, w in zip(got, want, strict=True):
             np.testing.assert_array_equal(g, w)
+    with pytest.raises(TypeError, match="denoiser must be a Denoiser or a callable"):
+        Reconstructor(sample, ReconstructParams(denoise=False), "junk")
 
 
 def test_default_alignment_refines_by_lucas_kanade_and_the_paper_does_not():

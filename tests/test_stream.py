@@ -109,3 +109,6 @@ def test_load_spikes_key_and_axes(tmp_path):
         load_spikes(tmp_path / "hwt.npz", axes="TWH")
     with pytest.raises(ValueError, match="a .npy file holds one array"):
         load_spikes(tmp_path / "hwt.npy", key="spikes")
+    np.save(tmp_path / "flat.npy", spikes[0])
+    with pytest.raises(ValueError, match=r"must have shape \(H, W, T\) with axes='HWT'; got shape \(4, 6\)"):
+        load_spikes(tmp_path / "flat.npy", axes="HWT")
