@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spikeref.compose import catmull_rom_weights, composed_warp, path_table
+from spikeref.compose import RESAMPLES, catmull_rom_weights, composed_warp, path_table
 from spikeref.oracles.compose import composed_warp_oracle
 from spikeref.warp import warp_average
 
@@ -23,15 +23,41 @@ def test_path_table():
 
 
 @settings(max_examples=12, deadline=None)
-@given(st.integers(2, 7), st.integers(2, 7), st.integers(1, 3), st.integers(0, 10_000))
-def test_matches_the_oracle(h, w, nhop, seed):
+@given(st.integers(2, 7), st.integers(2, 7), st.integers(1, 3), st.integers(0, 10_000), st.sampled_from(RESAMPLES))
+def test_matches_the_oracle(h, w, nhop, seed, resample):
     rng = np.random.default_rng(seed)
     counts = rng.integers(0, 11, (3, 2, h, w)).astype(np.float32)
     bank = rng.uniform(-1.5, 1.5, (4, 2, h, w)).astype(np.float32)
     hops = rng.integers(-1, 4, (5, nhop))
     targets = rng.integers(0, 3, 5)
-    got = composed_warp(counts, bank, hops, targets, 10)
-    np.testing.assert_allclose(got, composed_warp_oracle(counts, bank, hops, targets, 10), rtol=1e-5, atol=1e-6)
+    got = composed_warp(counts, bank, hops, targets, 10, resample)
+    want = composed_warp_oracle(counts, bank, hops, targets, 10, resample)
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)
+
+
+def test_one_sample_per_window():
+    """``resample="window"``: paths into one window at the same position give the per-path frame; at different
+    positions the window is sampled once at their mean (a cubic through a ramp is exact: the same value),
+    weighted by the number of paths, and a path outside the plane is left out of the mean and the weight."""
+    rng = np.random.default_rng(4)
+    counts = rng.integers(0, 11, (2, 1, 8, 9)).astype(np.float32)
+    bank = np.zeros((2, 2, 8, 9), np.float32)
+    bank[0, 1] = 0.5  # half a pixel right
+    bank[1, 1] = -0.5
+    hops = np.array([[0, 1], [1, 0], [-1, -1]])  # two routes to window 0 that end where they began; one to 1
+    targets = np.array([0, 0, 1])
+    np.testing.assert_array_equal(composed_warp(counts, bank, hops, targets, 1, "window"),
+                                  composed_warp(counts, bank, hops, targets, 1, "path"))
+    ramp = np.broadcast_to(np.arange(9, dtype=np.float32) / 20, (2, 1, 8, 9)).copy()
+    bank[1, 1] = 0.25
+    apart = np.array([[0, -1], [1, -1]])  # window 0 at x + 0.5 and x + 0.25: the mean x + 0.375
+    got = composed_warp(ramp, bank, apart, np.array([0, 0]), 1, "window")
+    np.testing.assert_allclose(got[0, :, 1:-2], (np.arange(1, 7) + 0.375)[None] / 20 * np.ones((8, 1)), rtol=1e-6)
+    bank[0, 1] = 30.0  # the first path leaves the plane: the mean is the second path's alone
+    got = composed_warp(ramp, bank, apart, np.array([0, 0]), 1, "window")
+    np.testing.assert_allclose(got[0, :, 1:-2], (np.arange(1, 7) + 0.25)[None] / 20 * np.ones((8, 1)), rtol=1e-6)
+    with pytest.raises(ValueError, match="resample must be one of path, window; got 'pixel'"):
+        composed_warp(counts, bank, hops, targets, 1, "pixel")
 
 
 def test_paths_share_the_positions_of_their_common_first_hops():

@@ -515,6 +515,22 @@ def test_presets():
         ReconstructParams.preset("turbo")
     with pytest.raises(TypeError, match="denoise must be True or False; got 'no'"):
         ReconstructParams(denoise="no")
+    with pytest.raises(ValueError, match="resample must be one of path, window; got 'pixel'"):
+        ReconstructParams(resample="pixel")
+    assert ReconstructParams().resample == ReconstructParams.fastest().resample == "window"
+
+
+def test_resample_reaches_the_composed_warp(sample):
+    """``resample`` changes only the composed/chained output frame: "path" is the composed warp of before (the
+    golden cases pin both), and the progressive warp ignores it."""
+    frames = {}
+    for params in (ReconstructParams(), ReconstructParams(resample="path"), ReconstructParams.paper(),
+                   ReconstructParams.paper(resample="path")):
+        rec = Reconstructor(sample, replace(params, denoise=False))
+        frames[params] = next(iter(rec.frames(5, 6))).rgb
+    window, path, paper, paper_path = frames.values()
+    assert not np.array_equal(window, path) and np.abs(window - path).mean() < 0.005  # the fan: flows spread
+    np.testing.assert_array_equal(paper, paper_path)
 
 
 def test_without_a_denoiser_the_network_never_runs(sample):

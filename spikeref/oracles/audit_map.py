@@ -323,16 +323,18 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         what=('composed warp: `I_L(x, k) = Σ_π v_π S_{k+Σπ}(x_π) / (W Σ_π v_π)` over the `K^L` paths `π = (i_L … '
               'i_1)`; the position moves hop by hop by the step flows `F_m(j, j+i)` of the frame reached (bilinear '
               'flow lookup, clamped), and the window reached is sampled once with Catmull–Rom (Keys `a = −½`, '
-              'clamped taps); a position outside the plane drops its path'),
+              'clamped taps); a position outside the plane drops its path. `resample="window"` (the pipeline\'s '
+              'default): each window sampled once at the mean position of its kept paths, weighted by their number'),
         function=('`spikeref.compose.composed_warp`, `path_table`; in the pipeline `spikeref.pipeline.Reconstructor` '
                   'with `ReconstructParams(warp="composed")` (default; `"progressive"` = Eq. 14–15; `"chained"` = '
                   'every hop by the step-0 flow, a speed option)'),
-        oracle=("`oracles.compose.composed_warp_oracle` (path by path, Keys' kernel written out); in the pipeline "
-                '`oracles.pipeline.reconstruct_oracle(warp="composed")` and `(warp="chained")`'),
+        oracle=("`oracles.compose.composed_warp_oracle` (path by path, Keys' kernel written out; `resample=`); in "
+                'the pipeline `oracles.pipeline.reconstruct_oracle(warp="composed")`, `(warp="chained")` and '
+                '`(resample="window")`'),
         tests=('`tests/test_compose.py` (oracle by hypothesis, whole-pixel flows = shifted windows, one resample '
                'keeps a fine pattern the chained bilinear warps blur), `tests/test_pipeline.py` (same flows as '
                'progressive, +1 dB on a panning photograph, chunks, rings), `tests/test_golden.py`'),
-        golden='{pipeline_frames_composed_guard}, {pipeline_frames_chained}',
+        golden='{pipeline_frames_composed_guard}, {pipeline_frames_chained}, {pipeline_frames_window}',
     ),
     AuditRow(
         equation='— (not in the paper; on by default)',

@@ -39,16 +39,19 @@ def _cubic_clamped(image, y, x):
     return total
 
 
-def composed_warp_oracle(counts, bank, hops, targets, window):
-    """``I_L(x) = Σ_π v_π S_{t_π}(x_π) / (W Σ_π v_π)``, clipped to [0, 1], ``x_π`` moved hop by hop along the flows."""
+def composed_warp_oracle(counts, bank, hops, targets, window, resample="path"):
+    """``I_L(x) = Σ_π v_π S_{t_π}(x_π) / (W Σ_π v_π)``, clipped to [0, 1], ``x_π`` moved hop by hop along the flows.
+
+    ``resample="window"``: ``I_L(x) = Σ_j n_j S_j(x̄_j) / (W Σ_j n_j)``, ``x̄_j`` the mean position of the
+    ``n_j`` paths inside the plane that end in window ``j``.
+    """
     counts = np.asarray(counts, dtype=np.float64)
     bank = np.asarray(bank, dtype=np.float64)
     n, nc, h, w = counts.shape
     out = np.zeros((nc, h, w))
     for y in range(h):
         for x in range(w):
-            total = np.zeros(nc)
-            kept = 0
+            inside = []  # (window, position) of every path that ends inside the plane
             for path, target in zip(hops, targets, strict=True):
                 sy, sx = float(y), float(x)
                 for f in path:
@@ -56,11 +59,21 @@ def composed_warp_oracle(counts, bank, hops, targets, window):
                         dy = _bilinear_clamped(bank[f, 0], sy, sx)
                         dx = _bilinear_clamped(bank[f, 1], sy, sx)
                         sy, sx = sy + dy, sx + dx
-                if not (-0.5 <= sy <= h - 0.5 and -0.5 <= sx <= w - 0.5):
-                    continue
-                for c in range(nc):
-                    total[c] += _cubic_clamped(counts[target, c], sy, sx)
-                kept += 1
-            if kept:
-                out[:, y, x] = np.clip(total / kept / window, 0.0, 1.0)  # a rate lies in [0, 1]
+                if -0.5 <= sy <= h - 0.5 and -0.5 <= sx <= w - 0.5:
+                    inside.append((target, sy, sx))
+            if not inside:
+                continue
+            total = np.zeros(nc)
+            if resample == "path":
+                for target, sy, sx in inside:
+                    for c in range(nc):
+                        total[c] += _cubic_clamped(counts[target, c], sy, sx)
+            else:
+                for j in sorted({t for t, _, _ in inside}):
+                    ys = [sy for t, sy, _ in inside if t == j]
+                    xs = [sx for t, _, sx in inside if t == j]
+                    mean_y, mean_x = sum(ys) / len(ys), sum(xs) / len(xs)
+                    for c in range(nc):
+                        total[c] += len(ys) * _cubic_clamped(counts[j, c], mean_y, mean_x)
+            out[:, y, x] = np.clip(total / len(inside) / window, 0.0, 1.0)  # a rate lies in [0, 1]
     return out

@@ -497,7 +497,7 @@ def _pipeline_align_params():
     return AlignParams(**_PIPELINE["align"])
 
 
-def _pipeline_fast(i, flow_frames="denoised", warp="progressive", guard="off", accumulate="count"):
+def _pipeline_fast(i, flow_frames="denoised", warp="progressive", guard="off", accumulate="count", resample="path"):
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.denoise.unet import UNet
     from spikeref.pipeline import ReconstructParams, Reconstructor
@@ -505,7 +505,7 @@ def _pipeline_fast(i, flow_frames="denoised", warp="progressive", guard="off", a
 
     c = _PIPELINE
     params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_pipeline_align_params(),
-                               flow_frames=flow_frames, warp=warp, accumulate=accumulate)
+                               flow_frames=flow_frames, warp=warp, accumulate=accumulate, resample=resample)
     net = UNet.from_params(_unet_params(i), meta={"input_domain": "count"})
     rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params, Denoiser(net, guard=guard))
     frames = list(rec.frames(c["frames"][0], c["frames"][-1] + 1, keep_steps=True))
@@ -547,6 +547,7 @@ _COMPOSED = {"outputs": ("rgb", "flows"), "warp": "composed", "guard": "sure"}
 _CHAINED = {"outputs": ("rgb",), "warp": "chained", "guard": "sure"}
 _CHARGE = {"outputs": ("rgb", "flows"), "warp": "composed", "guard": "sure", "flow_frames": "smoothed",
            "accumulate": "charge"}
+_WINDOW = {**_CHARGE, "outputs": ("rgb",), "resample": "window"}
 #: The SURE guard's settings in the manifest of the cases that use it (spikeref.denoise.guard).
 _GUARD_PARAMS = {"guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05}
 
@@ -919,7 +920,7 @@ CASES: list[GoldenCase] = [
         "computes in float64; its outputs are stored as float32.",
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_COMPOSED), partial(_pipeline_variant_fast, **_COMPOSED),
         rtol=1e-4, atol=1e-5,
-        params=_pipeline_params({"input_domain": "count", "warp": "composed",
+        params=_pipeline_params({"input_domain": "count", "warp": "composed", "resample": "path",
                                  "interpolant": "Catmull-Rom (Keys a = -1/2)", **_GUARD_PARAMS}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_composed_guard",
@@ -934,8 +935,8 @@ CASES: list[GoldenCase] = [
         "and 4. The oracle computes in float64; its outputs are stored as float32.",
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_CHAINED), partial(_pipeline_variant_fast, **_CHAINED),
         rtol=1e-4, atol=1e-5,
-        params=_pipeline_params({"input_domain": "count", "warp": "chained", "flow_frames": "denoised",
-                                 "guard": "sure"}),
+        params=_pipeline_params({"input_domain": "count", "warp": "chained", "resample": "path",
+                                 "flow_frames": "denoised", "guard": "sure"}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_chained",
     ),
@@ -957,10 +958,32 @@ CASES: list[GoldenCase] = [
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_CHARGE), partial(_pipeline_variant_fast, **_CHARGE),
         rtol=1e-4, atol=1e-5,
         params=_pipeline_params({"input_domain": "count", "accumulate": "charge", "charge_margin": 200,
-                                 "warp": "composed", "flow_frames": "smoothed", "flow_sigma": 1.0, **_GUARD_PARAMS,
+                                 "warp": "composed", "resample": "path", "flow_frames": "smoothed",
+                                 "flow_sigma": 1.0, **_GUARD_PARAMS,
                                  "guard_short_window": "the frame's own window (W)"}),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_charge",
+    ),
+    GoldenCase(
+        "pipeline_frames_window",
+        "Eq. 13–15 on window charges, warp=\"composed\" with one sample per window, smoothed flow frames and the "
+        "SURE guard (not in the paper; the package's defaults but for the alignment parameters)",
+        "spikeref.pipeline.Reconstructor (ReconstructParams(accumulate=\"charge\", warp=\"composed\", "
+        "resample=\"window\", flow_frames=\"smoothed\"), Denoiser(guard=\"sure\"))",
+        "spikeref.oracles.pipeline.reconstruct_oracle (accumulate=\"charge\", warp=\"composed\", "
+        "resample=\"window\", flow_frames=\"smoothed\", guard=\"sure\")",
+        "pipeline_frames_charge with I_L sampling each of the 7 windows once, at the mean of the composed "
+        "positions of its paths inside the plane, weighted by their number (spikeref.compose, "
+        "resample=\"window\"). Output: R_L (rgb) of frames 3 and 4 (the flows are pipeline_frames_charge's). "
+        "The oracle computes in float64; its outputs are stored as float32.",
+        _inputs_pipeline, partial(_pipeline_variant_oracle, **_WINDOW), partial(_pipeline_variant_fast, **_WINDOW),
+        rtol=1e-4, atol=1e-5,
+        params=_pipeline_params({"input_domain": "count", "accumulate": "charge", "charge_margin": 200,
+                                 "warp": "composed", "resample": "window", "flow_frames": "smoothed",
+                                 "flow_sigma": 1.0, **_GUARD_PARAMS,
+                                 "guard_short_window": "the frame's own window (W)"}),
+        jit_disabled_check=False,
+        spec="docs/spec/pipeline.md#pipeline_frames_window",
     ),
     GoldenCase(
         "metrics_psnr_ssim_pu21", "metrics (Wang et al. 2004 SSIM; Mantiuk & Azimi 2021 PU21)",

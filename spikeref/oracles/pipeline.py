@@ -126,7 +126,7 @@ def _mosaic(planes):
 
 def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, frames, depth=5, slope=0.1,
                        flow_frames="denoised", flow_sigma=1.0, keep_steps=True, warp="progressive",
-                       guard="off", accumulate="count"):
+                       guard="off", accumulate="count", resample="path"):
     """Frames ``R_L(k)``, every step ``R_l(k)`` and the flows ``F_l(k, k+i)`` for ``k`` in ``frames``.
 
     Parameters
@@ -147,6 +147,9 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
         ``flow_frames="smoothed"``.
     warp : {"progressive", "composed", "chained"}
         How ``I_L`` is made (module docstring).
+    resample : {"path", "window"}
+        With ``warp="composed"``/``"chained"``: each path samples its window, or each window is sampled once
+        at the mean position of its paths (:func:`composed_warp_oracle`).
     guard : {"off", "sure"}
         The guard on the output's ``D_L`` (module docstring); ``"off"`` applies the shrinkage.
     accumulate : {"count", "charge"}
@@ -215,7 +218,7 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
             hops.append(row)
             targets.append(jj - (j - L * h))
         counts = np.stack([window_total(t) for t in range(j - L * h, j + L * h + 1)])
-        return composed_warp_oracle(counts, np.stack(bank), hops, targets, window)
+        return composed_warp_oracle(counts, np.stack(bank), hops, targets, window, resample)
 
     def network(planes, exposure):
         counts = (planes * exposure).astype(np.float32)
