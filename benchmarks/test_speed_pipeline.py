@@ -5,7 +5,8 @@ The baseline measured in the same run is the denoised TFP (``L = 0``: one denois
 per frame), so the ratio says what the progressive warping costs on top of it.  Both ways of
 making the flow frames are timed: the paper's denoised frames, and the smoothed frames of
 ``flow_frames="smoothed"`` (one denoiser pass per output frame), and the fast preset
-(:meth:`ReconstructParams.fast`: the defaults with the chained warp).  Each line ends with the
+(:meth:`ReconstructParams.fast`: the defaults with the chained warp), and the fastest preset (the fast one
+without a denoiser).  Each line ends with the
 stage breakdown of :meth:`Reconstructor.profile` and the share of the time outside the U-Net's
 passes.  The denoiser is a width-16 U-Net (the bundled weights' shape; random weights cost the
 same).
@@ -60,17 +61,20 @@ def _config(name):
         return ReconstructParams.paper(flow_frames="smoothed"), Denoiser(net, guard="off")
     if name == "fast":  # the fast preset: the defaults with only the step-0 flows, composed
         return ReconstructParams.fast(), Denoiser(net)
+    if name == "fastest":  # the fast preset without a denoiser: no network pass
+        return ReconstructParams.fastest(), None
     return ReconstructParams(), Denoiser(net)  # the defaults: composed warp, smoothed flow frames, z = 3, guard
 
 
-@pytest.mark.parametrize("config", ["paper", "paper-smoothed", "defaults", "fast"])
+@pytest.mark.parametrize("config", ["paper", "paper-smoothed", "defaults", "fast", "fastest"])
 @pytest.mark.parametrize("size, n_frames", [((250, 400), 12), ((1000, 1000), 3)])
 def test_pipeline_fps(benchmark, report, size, n_frames, config):
     params, den = _config(config)
     stream = _stream(*size, planes=(n_frames + 6) * 10 + 10)
     _run(stream, params, den, 1)  # compile
     per_frame, prof = benchmark.pedantic(lambda: _run(stream, params, den, n_frames), rounds=1, iterations=1)
-    base, _ = _run(stream, ReconstructParams(L=0), Denoiser(den.unet, guard="off"), n_frames)
+    net = den.unet if den is not None else UNet.random(UNetSpec(width=16), seed=0)  # the baseline keeps its network
+    base, _ = _run(stream, ReconstructParams(L=0), Denoiser(net, guard="off"), n_frames)
     parts = ", ".join(f"{k} {v / prof.total:4.0%}" for k, v in prof.seconds.items() if k != "write")
     report(f"pipeline W=10 K=3 L=3, {config}, {size[0]}x{size[1]}",
            f"{1 / per_frame:6.2f} frames/s ({per_frame:6.3f} s/frame); denoised TFP (L=0) {1 / base:6.2f} frames/s; "
