@@ -513,6 +513,9 @@ def cmd_reconstruct(args) -> int:
         chosen["denoise"] = False
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,
                                       align=not args.no_align, **chosen)
+    if args.resample is not None and (params.warp == "progressive" or not params.align):
+        raise CliError(f"--resample {args.resample} applies to the composed and chained warps; this run "
+                       f"{'aligns nothing' if not params.align else 'uses the progressive warp'}")
     if not params.denoise:
         given = [flag for flag, on in (("--weights", args.weights is not None), ("--guard", args.guard is not None),
                                        ("--no-shrink", args.no_shrink)) if on]

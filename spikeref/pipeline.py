@@ -37,7 +37,8 @@ Beyond the paper (the defaults of :class:`ReconstructParams`, each measured on t
   Fig. 3(b).
 * ``warp="composed"`` makes ``I_L`` from the spike windows with the step flows composed along
   every path (:mod:`spikeref.compose`): one cubic resample per window instead of ``L``
-  bilinear ones.  ``"progressive"`` is Eq. 14–15; ``"chained"`` (a speed option) composes only
+  bilinear ones, at the mean end of the window's paths (``resample="window"``; ``"path"``
+  samples once per path).  ``"progressive"`` is Eq. 14–15; ``"chained"`` (a speed option) composes only
   the step-0 flows, so the frames and flows of steps ``1 … L−1`` are never made.
 * ``AlignParams(refine="lk", smoothness=300, zero_test=2)`` (the default here): the sub-pixel part of
   each tile vector by Lucas–Kanade steps instead of HDR+'s quadratic fit, the tile field regularised
@@ -193,8 +194,9 @@ class ReconstructParams:
         (:func:`spikeref.denoise.denoiser.bundled_weights`).
     resample : {"window", "path"}
         With ``warp="composed"`` or ``"chained"``: each spike window is sampled once, at the mean
-        composed position of the paths that end in it, weighted by their number (default; 2.1× faster
-        than ``"path"`` for the same PSNR on the benchmark and held-out means, ``docs/results.md``), or
+        composed position of the paths that end in it, weighted by their number (default; the warp
+        step 2.1× faster than with ``"path"`` for the same PSNR on the benchmark and held-out means,
+        ``docs/results.md``), or
         once per path (``"path"``, the composed warp until 2026-11-24); :func:`spikeref.compose.composed_warp`.
         Not in the paper; the progressive warp resamples frames, not windows, and ignores it.
     denoise : bool

@@ -255,6 +255,8 @@ def test_resume_recomputes_empty_truncated_and_foreign_frames(tmp_path, random_w
 @pytest.mark.parametrize("extra, message", [
     (["--frames", "0:5"], "this stream has frames 3:23"),
     (["--frames", "5:3"], "--frames 5:3: an empty range"),
+    (["--paper", "--resample", "path"], "--resample path applies to the composed and chained warps; this run uses "
+                                        "the progressive warp"),
     (["--frames", "5"], "--frames must look like a:b"),
     (["-K", "2"], "K must be odd"),
     (["-W", "0"], "window must be an integer ≥ 1"),

@@ -48,14 +48,22 @@ def test_one_sample_per_window():
     targets = np.array([0, 0, 1])
     np.testing.assert_array_equal(composed_warp(counts, bank, hops, targets, 1, "window"),
                                   composed_warp(counts, bank, hops, targets, 1, "path"))
-    ramp = np.broadcast_to(np.arange(9, dtype=np.float32) / 20, (2, 1, 8, 9)).copy()
+    # Catmull–Rom reproduces a parabola exactly, so a sample is q(position): one sample at the mean
+    # position gives q(x + 0.375), two samples averaged (one per path) give a different value
+    q = lambda x: (x / 9.0) ** 2  # noqa: E731
+    parabola = np.broadcast_to(q(np.arange(9)).astype(np.float32), (2, 1, 8, 9)).copy()
     bank[1, 1] = 0.25
-    apart = np.array([[0, -1], [1, -1]])  # window 0 at x + 0.5 and x + 0.25: the mean x + 0.375
-    got = composed_warp(ramp, bank, apart, np.array([0, 0]), 1, "window")
-    np.testing.assert_allclose(got[0, :, 1:-2], (np.arange(1, 7) + 0.375)[None] / 20 * np.ones((8, 1)), rtol=1e-6)
+    apart = np.array([[0, -1], [1, -1]])  # window 0 at x + 0.5 and x + 0.25
+    x = np.arange(1, 7)
+    got = composed_warp(parabola, bank, apart, np.array([0, 0]), 1, "window")
+    np.testing.assert_allclose(got[0, :, 1:7], q(x + 0.375)[None] * np.ones((8, 1)), rtol=1e-5)
+    per_path = composed_warp(parabola, bank, apart, np.array([0, 0]), 1, "path")
+    np.testing.assert_allclose(per_path[0, :, 1:7], ((q(x + 0.5) + q(x + 0.25)) / 2)[None] * np.ones((8, 1)),
+                               rtol=1e-5)
+    assert np.abs(got - per_path)[0, :, 1:7].min() > 1e-4  # the two modes differ everywhere here
     bank[0, 1] = 30.0  # the first path leaves the plane: the mean is the second path's alone
-    got = composed_warp(ramp, bank, apart, np.array([0, 0]), 1, "window")
-    np.testing.assert_allclose(got[0, :, 1:-2], (np.arange(1, 7) + 0.25)[None] / 20 * np.ones((8, 1)), rtol=1e-6)
+    got = composed_warp(parabola, bank, apart, np.array([0, 0]), 1, "window")
+    np.testing.assert_allclose(got[0, :, 1:7], q(x + 0.25)[None] * np.ones((8, 1)), rtol=1e-5)
     with pytest.raises(ValueError, match="resample must be one of path, window; got 'pixel'"):
         composed_warp(counts, bank, hops, targets, 1, "pixel")
 
