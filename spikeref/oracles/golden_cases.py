@@ -552,6 +552,14 @@ _WINDOW = {**_CHARGE, "outputs": ("rgb",), "resample": "window"}
 _GUARD_PARAMS = {"guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05}
 
 
+def _charge_case_params(resample: str) -> dict:
+    """The manifest parameters of the pipeline cases on window charges (``pipeline_frames_charge``, ``…_window``)."""
+    return _pipeline_params({"input_domain": "count", "accumulate": "charge", "charge_margin": 200,
+                             "warp": "composed", "resample": resample, "flow_frames": "smoothed",
+                             "flow_sigma": 1.0, **_GUARD_PARAMS,
+                             "guard_short_window": "the frame's own window (W)"})
+
+
 def _inputs_flow_luma():
     """Four 9×13 Bayer planes of random rates (float32): small enough that σ = 1.5 mirrors twice."""
     return {"planes": np.random.default_rng(15).random((4, 9, 13)).astype(np.float32)}
@@ -957,10 +965,7 @@ CASES: list[GoldenCase] = [
         "the flows of frames 3 and 4. The oracle computes in float64; its outputs are stored as float32.",
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_CHARGE), partial(_pipeline_variant_fast, **_CHARGE),
         rtol=1e-4, atol=1e-5,
-        params=_pipeline_params({"input_domain": "count", "accumulate": "charge", "charge_margin": 200,
-                                 "warp": "composed", "resample": "path", "flow_frames": "smoothed",
-                                 "flow_sigma": 1.0, **_GUARD_PARAMS,
-                                 "guard_short_window": "the frame's own window (W)"}),
+        params=_charge_case_params("path"),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_charge",
     ),
@@ -978,10 +983,7 @@ CASES: list[GoldenCase] = [
         "The oracle computes in float64; its outputs are stored as float32.",
         _inputs_pipeline, partial(_pipeline_variant_oracle, **_WINDOW), partial(_pipeline_variant_fast, **_WINDOW),
         rtol=1e-4, atol=1e-5,
-        params=_pipeline_params({"input_domain": "count", "accumulate": "charge", "charge_margin": 200,
-                                 "warp": "composed", "resample": "window", "flow_frames": "smoothed",
-                                 "flow_sigma": 1.0, **_GUARD_PARAMS,
-                                 "guard_short_window": "the frame's own window (W)"}),
+        params=_charge_case_params("window"),
         jit_disabled_check=False,
         spec="docs/spec/pipeline.md#pipeline_frames_window",
     ),
