@@ -539,6 +539,9 @@ def cmd_reconstruct(args) -> int:
     frames = _frames_in(args, rec.frames_available, params)
     a, b = frames.start, frames.stop
     done = set()
+    if exr_dir is not None:
+        with _output_phase():
+            _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink), args.resume)
     if args.resume:
         done, bad = frames_on_disk(exr_dir, frames, stream.height, stream.width)
         if bad:
@@ -587,6 +590,33 @@ def cmd_reconstruct(args) -> int:
     return 0
 
 
+def _run_record(stream, params, args, guard, shrink) -> dict:
+    """How this run makes its frames, for the EXR folder's record (``--resume`` refuses other settings)."""
+    from dataclasses import asdict
+
+    path = Path(stream.path) if stream.path is not None else None
+    record = {"input": {"name": path.name if path else None,
+                        "bytes": path.stat().st_size if path and path.is_file() else None,
+                        "planes": len(stream), "height": stream.height, "width": stream.width, "cfa": stream.cfa},
+              "params": asdict(params)}
+    if params.denoise:
+        record["denoiser"] = {"weights": str(args.weights), "guard": guard, "shrink": shrink}
+    return record
+
+
+def _check_resume_record(exr_dir, record, resume: bool) -> None:
+    """With ``--resume``, refuse a folder whose frames were made with other settings; then record this run's."""
+    from spikeref.render import RUN_RECORD, run_record_differences, write_run_record
+
+    if resume:
+        differ = run_record_differences(exr_dir, record)
+        if differ:
+            shown = ", ".join(differ[:6]) + (f" and {len(differ) - 6} more" if len(differ) > 6 else "")
+            raise CliError(f"--resume: the frames in {exr_dir} were made with other settings ({shown}; see "
+                           f"{RUN_RECORD} there): resume with the same options, or write to another --exr-dir")
+    write_run_record(exr_dir, record)
+
+
 def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
     import time
 
@@ -612,6 +642,7 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
                        f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
     if params.denoise:  # refused here, not on every worker
         _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
+    _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink), args.resume)
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
                    "rate_hz": args.rate_hz, "key": args.key, "axes": args.axes}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"

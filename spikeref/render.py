@@ -5,22 +5,29 @@ unclipped) named by frame index, and a display video through one fixed
 exposure chosen from the first frames (so the video does not flicker).
 :func:`render_baseline` writes a baseline's frames
 (:func:`spikeref.baselines.baseline_frames`, chunk by chunk) with a progress bar; memory does not grow
-with the recording.  :func:`frames_on_disk` and :func:`frame_runs` are the resume bookkeeping.
+with the recording.  :func:`frames_on_disk`, :func:`frame_runs` and the run record (:data:`RUN_RECORD`:
+how a folder's frames were made, so that ``--resume`` does not mix settings) are the resume bookkeeping.
 """
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Iterator
 
 import numpy as np
 
 from spikeref.baselines import baseline_frames
+from spikeref.io.atomic import atomic_write
 from spikeref.io.exr import read_exr, write_exr
 from spikeref.io.video import VideoWriter
 from spikeref.tonemap import Exposure, choose_exposure, tonemap
 
-__all__ = ["FrameSink", "render_baseline", "exr_name", "frame_runs", "frames_on_disk"]
+__all__ = ["FrameSink", "render_baseline", "exr_name", "frame_runs", "frames_on_disk", "RUN_RECORD",
+           "read_run_record", "write_run_record", "run_record_differences"]
+
+#: The file in an EXR folder that says how its frames were made (``spikeref reconstruct``), for ``--resume``.
+RUN_RECORD = "spikeref_run.json"
 
 
 def exr_name(index: int) -> str:
@@ -53,6 +60,49 @@ def frames_on_disk(exr_dir, frames, height: int, width: int) -> tuple[set[int], 
         else:
             bad.append(k)
     return done, bad
+
+
+def _plain(record: dict) -> dict:
+    """``record`` as JSON gives it back (tuples become lists), so a record compares equal to its file."""
+    return json.loads(json.dumps(record))
+
+
+def read_run_record(exr_dir) -> dict | None:
+    """The settings an earlier run wrote into ``exr_dir`` (:data:`RUN_RECORD`), or None when it wrote none."""
+    path = Path(exr_dir) / RUN_RECORD
+    if not path.is_file():
+        return None
+    try:
+        record = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return {}  # unreadable: every setting counts as different
+    return record if isinstance(record, dict) else {}
+
+
+def write_run_record(exr_dir, record: dict) -> None:
+    """Write ``record`` (JSON-able settings of the run) as :data:`RUN_RECORD` in ``exr_dir`` (made if absent)."""
+    exr_dir = Path(exr_dir)
+    exr_dir.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(_plain(record), indent=1, sort_keys=True) + "\n"
+    atomic_write(exr_dir / RUN_RECORD, lambda tmp: Path(tmp).write_text(text))
+
+
+def run_record_differences(exr_dir, record: dict) -> list[str]:
+    """The settings of ``record`` that differ from the record an earlier run left in ``exr_dir``, by name
+    (``params.window``, ``weights`` …); empty when they agree or when the folder holds no record."""
+    before = read_run_record(exr_dir)
+    if before is None:
+        return []
+    now = _plain(record)
+
+    def walk(a, b, prefix):
+        if isinstance(a, dict) and isinstance(b, dict):
+            for key in sorted(set(a) | set(b)):
+                yield from walk(a.get(key), b.get(key), f"{prefix}{key}.")
+        elif a != b:
+            yield prefix[:-1]
+
+    return list(walk(before, now, ""))
 
 
 def frame_runs(start: int, stop: int, done) -> Iterator[tuple[int, int, bool]]:

@@ -168,11 +168,21 @@ def test_reconstruct_chunks_and_resume_equal_one_run(tmp_path, random_weights, c
     assert "2 already written" in capsys.readouterr().err
     assert (tmp_path / "b" / "frame_000002.exr").stat().st_mtime_ns == first
     names = sorted(p.name for p in (tmp_path / "a").iterdir())
-    assert names == [f"frame_{k:06d}.exr" for k in range(2, 7)]
+    assert names == [f"frame_{k:06d}.exr" for k in range(2, 7)] + ["spikeref_run.json"]
     assert sorted(p.name for p in (tmp_path / "b").iterdir()) == names
-    for n in names:
+    for n in names[:-1]:
         np.testing.assert_array_equal(read_exr(tmp_path / "a" / n), read_exr(tmp_path / "b" / n))
     assert (tmp_path / "b.mp4").stat().st_size > 1000
+    # the folder's record says how its frames were made: --resume with other settings is refused, nothing written
+    before = sorted((p.name, p.stat().st_mtime_ns) for p in (tmp_path / "b").iterdir())
+    assert main(["reconstruct", "--exr-dir", str(tmp_path / "b"), "--frames", "2:8", "--resume", "--no-denoiser",
+                 "-L", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "--resume: the frames in" in err and "were made with other settings (denoiser, params.denoise;" in err
+    assert sorted((p.name, p.stat().st_mtime_ns) for p in (tmp_path / "b").iterdir()) == before
+    (tmp_path / "b" / "spikeref_run.json").unlink()  # a folder from before the record: resumed as it is
+    assert main(["reconstruct", "--exr-dir", str(tmp_path / "b"), "--frames", "2:7", "--resume", *w]) == 0
+    assert "5 already written" in capsys.readouterr().err
 
 
 def test_reconstruct_fast_preset_and_profile(tmp_path, random_weights, capsys):
@@ -184,7 +194,7 @@ def test_reconstruct_fast_preset_and_profile(tmp_path, random_weights, capsys):
     for stage in ("accumulate", "network", "guard", "align", "warp", "demosaic", "write", "other", "total"):
         assert f"\n{stage} " in table, table
     assert "2 frames" in table and "outside the network:" in table and "% of time" in table
-    assert sorted(p.name for p in (tmp_path / "f").iterdir()) == ["frame_000003.exr", "frame_000004.exr"]
+    assert sorted(p.name for p in (tmp_path / "f").glob("*.exr")) == ["frame_000003.exr", "frame_000004.exr"]
     assert main([*argv[:2], str(tmp_path / "g"), *argv[3:], "--preset", "paper"]) == 0
     err = capsys.readouterr().err
     assert "the paper's procedure" in err and "where the time went" not in err
@@ -215,7 +225,7 @@ def test_reconstruct_with_flow_on_smoothed_frames(tmp_path, random_weights, caps
     argv = ["reconstruct", "--exr-dir", str(tmp_path / "s"), "--frames", "3:5", "--weights", str(random_weights)]
     assert main([*argv, "--flow-frames", "smoothed"]) == 0
     assert "flow on smoothed frames" in capsys.readouterr().err
-    assert sorted(p.name for p in (tmp_path / "s").iterdir()) == ["frame_000003.exr", "frame_000004.exr"]
+    assert sorted(p.name for p in (tmp_path / "s").glob("*.exr")) == ["frame_000003.exr", "frame_000004.exr"]
     with pytest.raises(SystemExit) as exc:
         main([*argv, "--flow-frames", "raw"])
     assert exc.value.code == 2

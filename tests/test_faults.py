@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import errno
 import os
+import json
 import re
 import shlex
 import shutil
@@ -323,9 +324,12 @@ def _assert_frames_equal_reference(folder: Path, reference: Path, frames) -> Non
 
 
 def _only_whole_frames(folder: Path) -> list[str]:
-    """The names in ``folder``; asserts there is no temporary or hidden file beside the frames."""
-    names = sorted(p.name for p in folder.iterdir())
+    """The frames' names in ``folder``; asserts there is no temporary or hidden file beside the frames and
+    the run record (``render.RUN_RECORD``), which is whole JSON."""
+    names = sorted(p.name for p in folder.iterdir() if p.name != render.RUN_RECORD)
     assert all(re.fullmatch(r"frame_\d{6}\.exr", n) for n in names), f"partial or temporary files left: {names}"
+    if (folder / render.RUN_RECORD).exists():
+        assert isinstance(json.loads((folder / render.RUN_RECORD).read_text()), dict)
     return names
 
 
@@ -572,3 +576,18 @@ def test_signal_during_reconstruct_then_resume(tmp_path, sig, reference):
     assert main(_resume_command(line)) == 0
     assert _only_whole_frames(out) == [exr_name(k) for k in REF_FRAMES]
     _assert_frames_equal_reference(out, reference, REF_FRAMES)
+
+
+def test_run_record_names_what_differs(tmp_path):
+    """The EXR folder's record: nested settings compared by name, a missing key differs, an unreadable record
+    differs in everything, no record differs in nothing."""
+    record = {"params": {"window": 10, "align_params": {"tile_by_step": (32, 16, 8)}}, "denoiser": {"guard": "sure"}}
+    assert render.run_record_differences(tmp_path, record) == [] and render.read_run_record(tmp_path) is None
+    render.write_run_record(tmp_path / "exr", record)
+    assert render.read_run_record(tmp_path / "exr") == json.loads(json.dumps(record))  # tuples come back as lists
+    assert render.run_record_differences(tmp_path / "exr", record) == []
+    other = {"params": {"window": 20, "align_params": {"tile_by_step": (16, 16, 8)}}}
+    assert render.run_record_differences(tmp_path / "exr", other) == [
+        "denoiser", "params.align_params.tile_by_step", "params.window"]
+    (tmp_path / "exr" / render.RUN_RECORD).write_text("{not json")
+    assert render.run_record_differences(tmp_path / "exr", record) == ["denoiser", "params"]
