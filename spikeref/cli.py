@@ -1105,7 +1105,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="named settings (options given with it win): default (the defaults below); fast (the "
                         "defaults with --warp chained: only the step-0 flows estimated and composed, ≥ 8 frames/s "
                         "at 250×400 on two cores and within 0.5 dB of the defaults on the benchmark scenes, "
-                        "docs/results.md); fastest (fast with --no-denoiser: about 4× the defaults' frames/s, within "
+                        "docs/results.md); fastest (fast with --no-denoiser: about 5× the defaults' frames/s, within "
                         "0.1 dB of them on the benchmark's and held-out means, 0.4 dB under in low light); "
                         "paper (= --paper)")
     p.add_argument("--no-denoiser", action="store_true",

@@ -126,8 +126,8 @@ WARPS = ("progressive", "composed", "chained")
 #: (0.01 dB below the denoised flow frames), and 1 loses least at its worst setting (0.09 dB).
 FLOW_SMOOTHING_SIGMA = 1.0
 #: Named settings of :meth:`ReconstructParams.preset` (``spikeref reconstruct --preset``):
-#: ``"default"`` (the defaults), ``"fast"`` (:meth:`ReconstructParams.fast`), ``"paper"``
-#: (:meth:`ReconstructParams.paper`).
+#: ``"default"`` (the defaults), ``"fast"`` (:meth:`ReconstructParams.fast`), ``"fastest"``
+#: (:meth:`ReconstructParams.fastest`), ``"paper"`` (:meth:`ReconstructParams.paper`).
 PRESETS = ("default", "fast", "fastest", "paper")
 #: ``ReconstructParams.accumulate`` of the default reconstruction: the window charge (:mod:`spikeref.charge`;
 #: not in the paper, whose Eq. 4 count :meth:`ReconstructParams.paper` keeps), chosen on the stage ladder
@@ -196,9 +196,9 @@ class ReconstructParams:
         With ``warp="composed"`` or ``"chained"``: each spike window is sampled once, at the mean
         composed position of the paths that end in it, weighted by their number (default; the warp
         step 2.1× faster than with ``"path"`` for the same PSNR on the benchmark and held-out means,
-        ``docs/results.md``), or
-        once per path (``"path"``, the composed warp until 2026-11-24); :func:`spikeref.compose.composed_warp`.
-        Not in the paper; the progressive warp resamples frames, not windows, and ignores it.
+        ``docs/results.md``), or once per path (``"path"``, the composed warp until 2026-11-24);
+        :func:`spikeref.compose.composed_warp`.  Not in the paper; the progressive warp resamples
+        frames, not windows, and ignores it.
     denoise : bool
         Denoise (default) or not: ``False`` makes ``D`` the identity, so no network runs and no
         weights are loaded (a denoiser given to :class:`Reconstructor` is not used).  Not in the
@@ -287,9 +287,9 @@ class ReconstructParams:
     def fastest(cls, **kw) -> "ReconstructParams":
         """The fast preset without a denoiser: ``fast(denoise=False)``; ``kw`` sets any other field.
 
-        No network pass at all: at W/K/L = 10/3/3 and 250×400 about 4× the defaults' frames/s on two
-        cores, within 0.1 dB of them on the means of the benchmark and held-out scenes, 0.4 dB under
-        them in low light (``docs/results.md``, "The denoiser's share of the time").
+        No network pass at all: at W/K/L = 10/3/3 and 250×400 about 5× the defaults' frames/s on two
+        cores (61 against 12), within 0.1 dB of them on the means of the benchmark and held-out scenes,
+        0.4 dB under them in low light (``docs/results.md``, "The denoiser's share of the time").
         """
         base = dict(warp="chained", denoise=False)
         base.update(kw)
