@@ -255,7 +255,7 @@ def _check_input_options(args) -> None:
 
 def open_input(args):
     """Open the stream named by the parsed input options (sizes from the NAME.json sidecar if not given)."""
-    from spikeref.bayer import CFA_PATTERNS
+    from spikeref.bayer import CFA_PATTERNS, validate_cfa
     from spikeref.stream import open_spike_file
 
     _check_input_options(args)
@@ -263,8 +263,12 @@ def open_input(args):
     if not path.exists():
         raise CliError(f"no such file: {path}")
     cfa = args.cfa
-    if cfa is not None and cfa.lower() != "mono" and cfa.upper() not in CFA_PATTERNS:
-        raise CliError(f"--cfa {cfa}: not a colour pattern; give one of {', '.join(CFA_PATTERNS)} or mono")
+    if cfa is not None and cfa.lower() != "mono":
+        try:
+            validate_cfa(cfa)
+        except ValueError:
+            raise CliError(f"--cfa {cfa}: not a colour pattern; give one of {', '.join(CFA_PATTERNS)} or mono") \
+                from None
     return open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
                            file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
 
@@ -382,14 +386,20 @@ def _denoise_frames(text: str | None, total: int) -> range:
                            f"got {text!r}") from None
         _check_int(n, "--frames", 1, "a positive number of frames")
         return range(min(n, total))
+    return _frames_within(text, range(total), "there are frames 0:{stop} (whole windows from --start)")
+
+
+def _frames_within(text: str, avail: range, outside: str) -> range:
+    """``--frames a:b`` (a missing end: ``avail``'s) inside ``avail``; an empty range or one outside
+    ``avail`` is refused, the latter with ``outside`` (formatted with ``start`` and ``stop`` of ``avail``)."""
     a, b = parse_frames_option(text)
-    a = 0 if a is None else a
-    b = total if b is None else b
+    a = avail.start if a is None else a
+    b = avail.stop if b is None else b
     if a >= b:
         raise CliError(f"--frames {a}:{b}: an empty range (the first frame must come before the end, which is "
-                       f"excluded; there are frames 0:{total} from --start)")
-    if a < 0 or b > total:
-        raise CliError(f"--frames {a}:{b}: there are frames 0:{total} (whole windows from --start)")
+                       f"excluded; {outside.format(start=avail.start, stop=avail.stop)})")
+    if a < avail.start or b > avail.stop:
+        raise CliError(f"--frames {a}:{b}: {outside.format(start=avail.start, stop=avail.stop)}")
     return range(a, b)
 
 
@@ -448,17 +458,9 @@ def parse_frames_option(text: str | None):
 
 def _frames_in(args, avail: range, params) -> range:
     """The ``--frames a:b`` of ``args`` inside the frames ``avail`` the stream has, or a refusal."""
-    a, b = parse_frames_option(args.frames)
-    a = avail.start if a is None else a
-    b = avail.stop if b is None else b
-    if a >= b:
-        raise CliError(f"--frames {a}:{b}: an empty range (the first frame must come before the end, which is "
-                       f"excluded; this stream has frames {avail.start}:{avail.stop})")
-    if a < avail.start or b > avail.stop:
-        raise CliError(f"--frames {a}:{b}: this stream has frames {avail.start}:{avail.stop} "
-                       f"(W={args.window}, K={args.K}, L={args.L}: frame k needs windows k−{params.reach} … "
-                       f"k+{params.reach})")
-    return range(a, b)
+    return _frames_within(args.frames, avail, "this stream has frames {start}:{stop}" +
+                          f" (W={args.window}, K={args.K}, L={args.L}: frame k needs windows k−{params.reach} … "
+                          f"k+{params.reach})")
 
 
 def _frames_written(exr_dir: Path | None, frames: range) -> int:
@@ -642,7 +644,8 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
                        f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
     if params.denoise:  # refused here, not on every worker
         _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
-    _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink), args.resume)
+    with _output_phase():
+        _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink), args.resume)
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
                    "rate_hz": args.rate_hz, "key": args.key, "axes": args.axes}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"

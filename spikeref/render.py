@@ -83,7 +83,7 @@ def write_run_record(exr_dir, record: dict) -> None:
     """Write ``record`` (JSON-able settings of the run) as :data:`RUN_RECORD` in ``exr_dir`` (made if absent)."""
     exr_dir = Path(exr_dir)
     exr_dir.mkdir(parents=True, exist_ok=True)
-    text = json.dumps(_plain(record), indent=1, sort_keys=True) + "\n"
+    text = json.dumps(record, indent=1, sort_keys=True) + "\n"
     atomic_write(exr_dir / RUN_RECORD, lambda tmp: Path(tmp).write_text(text))
 
 
