@@ -1206,8 +1206,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ladder", action="store_true",
                    help="the stage ladder instead of the grid: per scene, TFP(W), BM3D / NLM on one window "
                         "(extra peers), the denoiser on one window, TFP(support), no alignment, no denoiser, "
-                        "ours, the true-flow ceiling with and without the denoiser, and the limit (the noise-free "
-                        "mosaic through Ψ), plus the flow's end-point error per step; at W/K/L from -W/-K/-L "
+                        "ours, the true-flow ceiling with and without the denoiser, with BM3D after it, on noise-free "
+                        "windows, and the limit (the noise-free mosaic through Ψ), plus the flow's end-point error per step; at W/K/L from -W/-K/-L "
                         "(default 10/3/3). Writes ladder.csv, ladder.md and (with spikeref[plot]) ladder.png; "
                         "~3 min on 2 cores")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")

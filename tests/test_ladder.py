@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from spikeref.bayer import bayer_planes, cfa_channel_map
-from spikeref.bench.ladder import RUNGS, binomial_weights, ladder_markdown, plot_ladder, run_ladder, true_flow_frame
+from spikeref.bench.ladder import (PEER_RUNGS, RUNGS, binomial_weights, ladder_markdown, plot_ladder, run_ladder,
+                                   true_flow_frame)
 from spikeref.bench.runner import BenchScene
 from spikeref.cli import main
 from spikeref.simulate.scenes import Scene, TranslatingTexture
@@ -54,8 +55,10 @@ def test_small_ladder_has_every_rung_and_the_limit_on_top(small_ladder):
     rows = {r["rung"]: r for r in res["rows"]}
     for r in res["rungs"]:
         assert np.isfinite(rows[r]["psnr"]), r
-    assert set(res["rungs"]) >= set(RUNGS) - {"bm3d", "nlm"}
+    assert set(res["rungs"]) >= set(RUNGS) - set(PEER_RUNGS["bm3d"]) - set(PEER_RUNGS["nlm"])
     assert rows["limit"]["psnr"] == max(r["psnr"] for r in rows.values())
+    # the noise-free windows through the same warp: above the noisy true flow, under the limit by the resampling
+    assert rows["true_flow"]["psnr"] + 1.0 < rows["true_flow_clean"]["psnr"] < rows["limit"]["psnr"]
     assert rows["tfp"]["psnr"] == min(r["psnr"] for r in rows.values())
     assert rows["true_flow"]["psnr"] > rows["tfp_support"]["psnr"]  # the texture moves 0.5 plane px per window
     steps = sorted(e["step"] for e in res["epe"])
@@ -68,6 +71,15 @@ def test_ladder_report_and_plot(small_ladder, tmp_path):
     pytest.importorskip("matplotlib")
     assert plot_ladder(small_ladder, tmp_path / "ladder.png")
     assert (tmp_path / "ladder.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_peer_rungs_leave_with_their_peer():
+    """Without the peers asked for, the rungs that need them are not run (nor listed)."""
+    res = run_ladder([], peers=(), progress=False)
+    assert not set(res["rungs"]) & {"bm3d", "nlm", "true_flow_bm3d"}
+    assert "true_flow_clean" in res["rungs"]
+    res = run_ladder([], peers=("nlm",), rungs=("nlm", "true_flow_bm3d"), progress=False)
+    assert res["rungs"] == (("nlm",) if "nlm" in res["rungs"] else ())
 
 
 def test_unknown_rung():

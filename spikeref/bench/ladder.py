@@ -26,6 +26,12 @@ rung                what it is
                     would give
 ``true_flow_d``     the same, then our denoiser (told the exposure of ``I_L``, and as the pipeline
                     does for charges, the reference window for its noise)
+``true_flow_bm3d``  the same, then BM3D on each Bayer plane (σ estimated blind): the classical peer
+                    after a perfect merge
+``true_flow_clean`` the same warp and weights on the *noise-free* windows (each window's exact ground
+                    truth, mosaicked): what the resampling itself costs; between it and ``true_flow`` is
+                    the noise left after the merge, between it and ``limit`` the loss of resampling
+                    half-resolution Bayer planes
 ``limit``           the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
 ``ours_mhc``,       beyond Ψ: ours and the limit with the Malvar–He–Cutler demosaic instead of Ψ for
 ``limit_mhc``       the output (:mod:`spikeref.demosaic`, ``ReconstructParams(demosaic="mhc")``)
@@ -50,21 +56,26 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "LadderSetting", "binomial_weights", "true_flow_frame", "run_ladder",
-           "ladder_markdown", "plot_ladder"]
+__all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "PEER_RUNGS", "TRUE_FLOW_RUNGS", "LadderSetting", "binomial_weights",
+           "true_flow_frame", "run_ladder", "ladder_markdown", "plot_ladder"]
 
 #: The rungs, bottom to top.
 RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
-         "true_flow_d", "limit", "ours_mhc", "limit_mhc", "ours_count")
+         "true_flow_d", "true_flow_bm3d", "true_flow_clean", "limit", "ours_mhc", "limit_mhc", "ours_count")
 RUNG_LABELS = {
     "tfp": "TFP(W)", "bm3d": "BM3D on W", "nlm": "NLM on W", "net": "D on W", "tfp_support": "TFP(support)",
     "no_align": "no alignment", "no_denoiser": "no denoiser", "paper": "paper's Fig. 3(b)", "ours": "ours",
     "true_flow": "true flow",
-    "true_flow_d": "true flow + D", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
+    "true_flow_d": "true flow + D", "true_flow_bm3d": "true flow + BM3D",
+    "true_flow_clean": "true flow, noise-free", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
     "limit_mhc": "limit, MHC demosaic", "ours_count": "ours, Eq. 4 count",
 }
 #: Columns that are options beside the ladder (another demosaic, Eq. 4's counts), not rungs of it.
 OPTION_RUNGS = ("ours_mhc", "limit_mhc", "ours_count")
+#: The rungs that need a classical peer (its package), by peer.
+PEER_RUNGS = {"bm3d": ("bm3d", "true_flow_bm3d"), "nlm": ("nlm",)}
+#: The rungs made by warping with the scene's exact motion.
+TRUE_FLOW_RUNGS = ("true_flow", "true_flow_d", "true_flow_bm3d", "true_flow_clean")
 #: Border left out of the end-point error, full-resolution pixels.
 EPE_BORDER = 8
 
@@ -167,7 +178,7 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
     """
     from spikeref.accumulate import window_counts
     from spikeref.charge import window_charge
-    from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
+    from spikeref.bayer import bayer_mosaic, bayer_planes, cfa_channel_map, demosaic_bilinear
     from spikeref.pipeline import ReconstructParams, Reconstructor, exposure_planes
     from spikeref.simulate.motion import plane_flow
 
@@ -181,6 +192,10 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
 
     def psi(planes):
         return demosaic_bilinear(bayer_mosaic(np.asarray(planes, dtype=np.float32), cfa), cfa)
+
+    def mosaic_of(rgb):  # the noise-free Bayer mosaic of a ground-truth frame
+        chan = cfa_channel_map(rgb.shape[0], rgb.shape[1], cfa)
+        return np.take_along_axis(rgb, chan[..., None].astype(np.int64), axis=-1)[..., 0].astype(np.float32)
 
     out = {r: [] for r in rungs}
     secs = {r: [] for r in rungs}
@@ -215,13 +230,21 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
             secs["net"].append(time.perf_counter() - t0)
         if "tfp_support" in rungs:
             out["tfp_support"].append(psi(planes.sum(axis=0) / np.float32(w * len(planes))))
-        if "true_flow" in rungs or "true_flow_d" in rungs:
+        if any(r in rungs for r in TRUE_FLOW_RUNGS):
             if not has_motion:
-                for r in ("true_flow", "true_flow_d"):
+                for r in TRUE_FLOW_RUNGS:
                     if r in rungs:
                         out[r].append(None)
             else:
                 tf = true_flow_frame(method_planes, sc.scene.content, w, offset + first * w, reach, weights)
+                if "true_flow_bm3d" in rungs:
+                    out["true_flow_bm3d"].append(psi(peers["bm3d"](tf, window=exposure_planes(w, K, L))))
+                if "true_flow_clean" in rungs:
+                    # each window's exact ground truth as its Bayer planes, in counts as the windows give
+                    clean = np.stack([bayer_planes(mosaic_of(sc.reference(offset + (first + j) * w + w // 2)), cfa)
+                                      for j in range(2 * reach + 1)]) * np.float32(w)
+                    out["true_flow_clean"].append(psi(true_flow_frame(clean, sc.scene.content, w, offset + first * w,
+                                                                      reach, weights)))
                 if "true_flow" in rungs:
                     out["true_flow"].append(psi(tf))
                 if "true_flow_d" in rungs:
@@ -231,15 +254,13 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                         more_d = more
                     out["true_flow_d"].append(psi(denoiser(tf, "visible", window=exposure_planes(w, K, L), **more_d)))
         if "limit" in rungs or "limit_mhc" in rungs:
-            from spikeref.bayer import cfa_channel_map
             from spikeref.demosaic import demosaic_mhc
 
-            chan = cfa_channel_map(truth.shape[0], truth.shape[1], cfa)
-            mosaic = np.take_along_axis(truth, chan[..., None].astype(np.int64), axis=-1)[..., 0]
+            mosaic = mosaic_of(truth)
             if "limit" in rungs:
-                out["limit"].append(demosaic_bilinear(mosaic.astype(np.float32), cfa))
+                out["limit"].append(demosaic_bilinear(mosaic, cfa))
             if "limit_mhc" in rungs:
-                out["limit_mhc"].append(demosaic_mhc(mosaic.astype(np.float32), cfa))
+                out["limit_mhc"].append(demosaic_mhc(mosaic, cfa))
 
     def run(params, den, keep):
         rec = Reconstructor(view, params, den)
@@ -328,7 +349,7 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
     notes = []
     peer_fns = {}
     for name in peers:
-        if name not in rungs:
+        if not any(r in rungs for r in PEER_RUNGS.get(name, (name,))):
             continue
         try:
             from spikeref.denoise.peers import PeerDenoiser, peer_available
@@ -339,7 +360,7 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
             notes.append(f"{name}: not installed (pip install \"spikeref[peers]\")")
             continue
         peer_fns[name] = PeerDenoiser(name)
-    rungs = tuple(r for r in rungs if r not in ("bm3d", "nlm") or r in peer_fns)
+    rungs = tuple(r for r in rungs if all(r not in need or name in peer_fns for name, need in PEER_RUNGS.items()))
     rows, epe_rows = [], []
     bar = tqdm(total=len(scenes) * len(settings), desc="ladder", unit="scene", disable=not progress)
     try:

@@ -1,0 +1,98 @@
+"""What stands between a perfect alignment and the limit: resampling, noise, and BM3D told the true σ.
+
+``python scripts/study_limit_gap.py [--set bench|heldout]`` warps, at the ladder's four scored frames of
+every scene with a motion model (W/K/L = 10/3/3, the binomial weights of Eq. 14–15), the support's
+window charges with the exact motion (:func:`spikeref.bench.ladder.true_flow_frame`), and the same
+support's noise-free windows (each window's exact ground truth, mosaicked), and prints per scene the
+PSNR (dB, Ψ in linear RGB against the 10-plane ground truth, as the ladder) of
+
+* ``limit``: Ψ of the noise-free mosaic of the reference window;
+* ``clean``: the noise-free windows through the true-flow warp (what resampling costs);
+* ``tf``: the charges through the true-flow warp (the ladder's "true flow");
+* ``bm3d``: ``tf`` then BM3D with a blind σ (the ladder's "true flow + BM3D");
+* ``bm3d_true_sigma`` and ``bm3d_2x_sigma``: ``tf`` then BM3D told the σ of ``tf − clean`` (the noise
+  actually left after the merge, which no user knows), and twice it;
+* ``noise_rel``: that σ over the mean of the reference window's noise-free planes.
+
+The held-out set is ``scripts/heldout_scenes`` at seed 11, the bench the benchmark's scenes at seed 0.
+Needs the test and peers extras (photographs from scikit-image, the ``bm3d`` package); about 1 min
+per set on two cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from spikeref.bayer import bayer_mosaic, bayer_planes, cfa_channel_map, demosaic_bilinear
+from spikeref.bench.ladder import _score, binomial_weights, true_flow_frame
+from spikeref.bench.runner import bench_scenes, load_bench_scene, score_centres
+from spikeref.charge import window_charge
+from spikeref.denoise.peers import PeerDenoiser
+
+HELDOUT = Path(__file__).resolve().parent / "heldout_scenes"
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--set", choices=("bench", "heldout"), default="bench", help="which scene set (default bench)")
+    args = ap.parse_args(argv)
+    if args.set == "bench":
+        scenes, seed = bench_scenes(), 0
+    else:
+        scenes, seed = [load_bench_scene(p) for p in sorted(HELDOUT.glob("*.toml"))], 11
+    w, K, L = 10, 3, 3
+    reach = L * ((K - 1) // 2)
+    weights = binomial_weights(K, L)
+    blind = PeerDenoiser("bm3d")
+    per_scene = {}
+    for sc in scenes:
+        sc.simulate(seed)
+        if sc.scene.content.true_flow(0.0, 0.0, np.zeros((1, 2))) is None:
+            sc.stream = None
+            continue
+        cfa = sc.stream.cfa
+
+        def psi(planes, cfa=cfa):
+            return demosaic_bilinear(bayer_mosaic(np.asarray(planes, np.float32), cfa), cfa)
+
+        def mosaic_of(rgb, cfa=cfa):
+            chan = cfa_channel_map(rgb.shape[0], rgb.shape[1], cfa)
+            return np.take_along_axis(rgb, chan[..., None].astype(np.int64), axis=-1)[..., 0].astype(np.float32)
+
+        centres = score_centres(len(sc.stream), 4)
+        offset = (centres[0] - w // 2) % w
+        view = sc.stream.slice(offset)
+        rows = []
+        for t in centres:
+            first = (t - w // 2 - offset) // w - reach
+            start = offset + first * w
+            truth = sc.reference(t)
+            clean = np.stack([bayer_planes(mosaic_of(sc.reference(start + j * w + w // 2)), cfa)
+                              for j in range(2 * reach + 1)]) * np.float32(w)
+            clean_tf = true_flow_frame(clean, sc.scene.content, w, start, reach, weights)
+            charges = bayer_planes(window_charge(view, w, start=first * w, count=2 * reach + 1), cfa)
+            tf = true_flow_frame(charges, sc.scene.content, w, start, reach, weights)
+            sigma = float(np.std(tf - clean_tf))
+            rows.append({
+                "limit": _score(truth, demosaic_bilinear(mosaic_of(truth), cfa))["psnr"],
+                "clean": _score(truth, psi(clean_tf))["psnr"],
+                "tf": _score(truth, psi(tf))["psnr"],
+                "bm3d": _score(truth, psi(blind(tf)))["psnr"],
+                "bm3d_true_sigma": _score(truth, psi(PeerDenoiser("bm3d", sigma=sigma)(tf)))["psnr"],
+                "bm3d_2x_sigma": _score(truth, psi(PeerDenoiser("bm3d", sigma=2 * sigma)(tf)))["psnr"],
+                "noise_rel": sigma / float(clean[reach].mean() / w),
+            })
+        per_scene[sc.key] = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
+        print(sc.key, "  ".join(f"{k} {v:.3f}" if k == "noise_rel" else f"{k} {v:.2f}"
+                                for k, v in per_scene[sc.key].items()), flush=True)
+        sc.stream = None
+    keys = next(iter(per_scene.values()))
+    print(f"mean of {len(per_scene)}", "  ".join(
+        f"{k} {np.mean([r[k] for r in per_scene.values()]):.2f}" for k in keys))
+
+
+if __name__ == "__main__":
+    main()
