@@ -92,17 +92,52 @@ def test_network_output_does_not_depend_on_the_thread_count():
     np.testing.assert_array_equal(one, many)
 
 
-def test_every_interior_value_is_written_and_borders_are_zero(monkeypatch):
+def test_skip_and_region_read_and_write_what_they_say():
+    # conv_padded(xp, skip=s) is the convolution of the concatenation [xp, s], and region=(r, c)
+    # writes exactly the interior's first r rows and c columns, bit for bit as the whole layer.
+    from spikeref.denoise._unet_kernels import padded_empty
+    from spikeref.denoise.conv import conv_padded
+
+    rng = np.random.default_rng(4)
+    a = rng.standard_normal((2, 3, 9, 21)).astype(np.float32)
+    s = rng.standard_normal((2, 2, 9, 21)).astype(np.float32)
+    for cout in (1, 5, 8):  # a lone last channel, a partial group, whole groups
+        wt = rng.standard_normal((cout, 5, 3, 3)).astype(np.float32)
+        b = rng.standard_normal(cout).astype(np.float32)
+
+        def padded(t):
+            out = padded_empty(*t.shape)
+            out[:, :, 1:-1, 1:-1] = t
+            return out
+
+        whole = conv_padded(padded(np.concatenate([a, s], axis=1)), wt, b, 0.1)
+        np.testing.assert_array_equal(whole[:, :, 1:-1, 1:-1], conv3x3(np.concatenate([a, s], axis=1), wt, b, 0.1))
+        split = conv_padded(padded(a), wt, b, 0.1, skip=padded(s))
+        np.testing.assert_array_equal(split, whole)
+        out = padded_empty(2, cout, 9, 21)
+        out[:, :, 1:-1, 1:-1] = np.nan
+        conv_padded(padded(a), wt, b, 0.1, out=out, skip=padded(s), region=(4, 7))
+        np.testing.assert_array_equal(out[:, :, 1:5, 1:8], whole[:, :, 1:5, 1:8])
+        assert np.isnan(out[:, :, 5:-1, 1:-1]).all() and np.isnan(out[:, :, 1:-1, 8:-1]).all()
+
+
+@pytest.mark.parametrize("shape, depth", [((2, 24, 40), 3), ((2, 37, 35), 5)], ids=["whole", "padded"])
+def test_every_interior_value_is_written_and_borders_are_zero(monkeypatch, shape, depth):
     # The activations live in buffers from _padded_empty (np.empty inside, zero border): fill
     # the interiors with NaN first, and the network must still give the same finite output.
+    # On a padded input the last layers compute only what the output keeps (and the columns up
+    # to a multiple of 16): the NaN left in the rest must not reach the output either.
     import spikeref.denoise._unet_kernels as unet
 
     buf = unet.padded_empty(2, 3, 4, 5)
     assert buf.shape == (2, 3, 6, 7)
     assert not buf[:, :, [0, -1], :].any() and not buf[:, :, :, [0, -1]].any()
-    net = UNet.random(UNetSpec(width=6, depth=3), seed=8)
-    x = np.random.default_rng(9).random((2, 24, 40)).astype(np.float32)
+    net = UNet.random(UNetSpec(width=6, depth=depth), seed=8)
+    x = np.random.default_rng(9).random(shape).astype(np.float32)
     clean = net(x)
+    assert np.isfinite(clean).all()
+    if depth == 5:  # padded to 64 × 64: the tail computes 48 columns and 37 rows; the oracle every pixel
+        np.testing.assert_allclose(clean, unet_forward_oracle(net.params, x, depth=5), rtol=1e-5, atol=1e-6)
     original = unet.padded_empty
 
     def poisoned(n, c, h, w):

@@ -3,7 +3,8 @@
 The direct 3×3 convolution (one parallel job per output row and group of four output channels, the
 nine taps of each input channel summed as one expression over rows held in the L1 cache; fused
 multiply-adds only, no reassociation, so the result does not depend on the thread count), 2×2
-max-pooling and the nearest upsampling fused with the skip concatenation.  LLVM turns the nine-tap expression into
+max-pooling and the nearest upsampling (the skip half of each concatenation is read in place by the
+next convolution, never copied).  LLVM turns the nine-tap expression into
 fused multiply-adds over a vector of pixels; every output value is computed by one job in a fixed order.  The
 measured alternatives (im2col + BLAS, the network's convolution until 2026-11-23, and one ``einsum`` per tap)
 are in :mod:`spikeref.denoise._conv_alternatives`, for ``benchmarks/test_speed_unet.py``.  Activations are
@@ -20,8 +21,9 @@ import numpy as np
 from spikeref._jit import njit, prange
 
 __all__ = [
-    "buffers", "padded_empty", "release_buffers", "conv3x3_direct", "maxpool_into", "nine_taps", "split_job",
-    "store_row", "upsample_concat_into",
+    "buffers", "padded_empty", "release_buffers", "conv3x3_direct", "four_channel_row", "maxpool_into", "nine_taps",
+    "one_channel_row", "split_job",
+    "store_row", "upsample_into",
 ]
 
 
@@ -42,6 +44,32 @@ def nine_taps(k, u0, u1, u2, v0, v1, v2, s0, s1, s2):
             + (k[2, 0] * s0 + k[2, 1] * s1 + k[2, 2] * s2))
 
 
+@njit(fastmath={"contract"}, inline="always")
+def four_channel_row(r0, r1, r2, wa, wb, wc, wd, a, b, c, d, cols):
+    # a, b, c, d[x] += the 3×3 kernels wa … wd on input rows r0, r1, r2 (above, at and below) at x
+    for x in range(cols):
+        u0 = r0[x]
+        u1 = r0[x + 1]
+        u2 = r0[x + 2]
+        v0 = r1[x]
+        v1 = r1[x + 1]
+        v2 = r1[x + 2]
+        s0 = r2[x]
+        s1 = r2[x + 1]
+        s2 = r2[x + 2]
+        a[x] += nine_taps(wa, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+        b[x] += nine_taps(wb, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+        c[x] += nine_taps(wc, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+        d[x] += nine_taps(wd, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+
+
+@njit(fastmath={"contract"}, inline="always")
+def one_channel_row(r0, r1, r2, wa, a, cols):
+    # a[x] += the 3×3 kernel wa on input rows r0, r1, r2 at x
+    for x in range(cols):
+        a[x] += nine_taps(wa, r0[x], r0[x + 1], r0[x + 2], r1[x], r1[x + 1], r1[x + 2], r2[x], r2[x + 1], r2[x + 2])
+
+
 @njit
 def store_row(src, dst, slope, act):
     # dst[1 : w + 1] = src, through LeakyReLU when act
@@ -53,55 +81,51 @@ def store_row(src, dst, slope, act):
 
 
 @njit(parallel=True, fastmath={"contract"}, error_model="numpy")
-def conv3x3_direct(xp, weight, bias, slope, act, out):
-    # xp: (n, cin, h + 2, w + 2) float32, zero border; weight: (cout, cin, 3, 3) float32;
-    # bias: (cout,) float32; out: (n, cout, h + 2, w + 2) float32 -- the interior is written,
-    # the border is left to the caller.  One job = one output row of four output channels
-    # (the last group computes the last channel again where cout is not a multiple of 4, and
-    # stores it once).  fastmath
-    # "contract" allows only the fusion of a product and a sum into one FMA; no reassociation.
-    n, cin, hp, wp = xp.shape
+def conv3x3_direct(xp, xq, weight, bias, slope, act, rows, cols, out):
+    # xp: (n, cp, h + 2, w + 2) float32, zero border; xq: (n, cq, h + 2, w + 2) float32, zero border,
+    # the input channels that follow xp's (cq may be 0: the skip half of a concatenation, read where
+    # it lies instead of copied); weight: (cout, cp + cq, 3, 3) float32; bias: (cout,) float32;
+    # out: (n, cout, h + 2, w + 2) float32 -- the interior's first `rows` rows and `cols` columns
+    # are written, the rest of the interior and the border are left to the caller (an output that
+    # only its first rows and columns are wanted of needs only those of each layer before it, one
+    # more per layer).  One job = one output row of four output channels (the last group computes
+    # only the channels that exist).  fastmath "contract" allows only the fusion of a product and a
+    # sum into one FMA; no reassociation, so every value is summed in the same order whatever rows,
+    # cols and the thread count are.
+    n, cp, hp, wp = xp.shape
+    cq = xq.shape[1]
     cout = weight.shape[0]
-    h = hp - 2
-    w = wp - 2
     groups = (cout + 3) // 4
-    for job in prange(n * groups * h):
-        i, g, y = split_job(job, groups, h)
+    for job in prange(n * groups * rows):
+        i, g, y = split_job(job, groups, rows)
         o0 = 4 * g
         o1 = min(o0 + 1, cout - 1)
         o2 = min(o0 + 2, cout - 1)
         o3 = min(o0 + 3, cout - 1)
+        lone = o0 + 1 == cout  # a last group of one channel (the tail's single output)
         # Fresh rows, so LLVM knows they alias neither each other nor the input.
-        a = np.empty(w, dtype=np.float32)
-        b = np.empty(w, dtype=np.float32)
-        c = np.empty(w, dtype=np.float32)
-        d = np.empty(w, dtype=np.float32)
+        a = np.empty(cols, dtype=np.float32)
+        b = np.empty(cols, dtype=np.float32)
+        c = np.empty(cols, dtype=np.float32)
+        d = np.empty(cols, dtype=np.float32)
         a[:] = bias[o0]
         b[:] = bias[o1]
         c[:] = bias[o2]
         d[:] = bias[o3]
-        for ci in range(cin):
-            r0 = xp[i, ci, y]
-            r1 = xp[i, ci, y + 1]
-            r2 = xp[i, ci, y + 2]
-            wa = weight[o0, ci]
-            wb = weight[o1, ci]
-            wc = weight[o2, ci]
-            wd = weight[o3, ci]
-            for x in range(w):
-                u0 = r0[x]
-                u1 = r0[x + 1]
-                u2 = r0[x + 2]
-                v0 = r1[x]
-                v1 = r1[x + 1]
-                v2 = r1[x + 2]
-                s0 = r2[x]
-                s1 = r2[x + 1]
-                s2 = r2[x + 2]
-                a[x] += nine_taps(wa, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-                b[x] += nine_taps(wb, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-                c[x] += nine_taps(wc, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-                d[x] += nine_taps(wd, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+        for ci in range(cp + cq):  # xp's channels, then xq's, each by its own loop: one source per loop
+            if ci < cp:
+                r0 = xp[i, ci, y]
+                r1 = xp[i, ci, y + 1]
+                r2 = xp[i, ci, y + 2]
+            else:
+                r0 = xq[i, ci - cp, y]
+                r1 = xq[i, ci - cp, y + 1]
+                r2 = xq[i, ci - cp, y + 2]
+            if lone:
+                one_channel_row(r0, r1, r2, weight[o0, ci], a, cols)
+            else:
+                four_channel_row(r0, r1, r2, weight[o0, ci], weight[o1, ci], weight[o2, ci], weight[o3, ci],
+                                 a, b, c, d, cols)
         store_row(a, out[i, o0, y + 1], slope, act)
         if o0 + 1 < cout:  # the clamped repeats of the last channel are not stored
             store_row(b, out[i, o1, y + 1], slope, act)
@@ -128,24 +152,16 @@ def maxpool_into(t, out):
 
 
 @njit(parallel=True)
-def upsample_concat_into(low, skip, out):
-    # low: (n, c, h/2 + 2, w/2 + 2), skip: (n, cs, h + 2, w + 2), both with a border;
-    # out: (n, c + cs, h + 2, w + 2), interior written: [nearest ×2 of low, skip].
-    n, ct, hp, wp = out.shape
-    c = low.shape[1]
-    h = hp - 2
-    w = wp - 2
-    for job in prange(n * ct * h):
-        i, k, y = split_job(job, ct, h)
+def upsample_into(low, rows, cols, out):
+    # low: (n, c, h/2 + 2, w/2 + 2) with a border; out: (n, c, h + 2, w + 2): the nearest ×2 of
+    # low's interior written into out's first `rows` rows and `cols` columns of the interior.
+    n, c = out.shape[0], out.shape[1]
+    for job in prange(n * c * rows):
+        i, k, y = split_job(job, c, rows)
         dst = out[i, k, y + 1]
-        if k < c:
-            src = low[i, k, y // 2 + 1]
-            for x in range(w):
-                dst[x + 1] = src[x // 2 + 1]
-        else:
-            src = skip[i, k - c, y + 1]
-            for x in range(w):
-                dst[x + 1] = src[x + 1]
+        src = low[i, k, y // 2 + 1]
+        for x in range(cols):
+            dst[x + 1] = src[x // 2 + 1]
 
 
 def padded_empty(n: int, c: int, h: int, w: int) -> np.ndarray:
@@ -166,11 +182,12 @@ class _Buffers:
     pass releases (an activation no later layer reads) are handed to the next request of the same
     shape, in this pass or a later one, so a stream of frames of one size touches new memory only in
     its first pass.  Kept, per input size, is for each buffer shape the most buffers of that shape a
-    pass has live at once: for the four 128×224 planes of a 250×400 frame and width 16, 45 MB, where
-    a pass has 25 MB live at its peak.  The buffers of the two most recent input sizes are kept (the
-    blind and mixed modes alternate two batch sizes); :func:`release_buffers` frees them.  The border
-    of every buffer stays zero: the kernels write interiors only, and every interior is written
-    before it is read.
+    pass has live at once: for the four 128×224 planes of a 250×400 frame and width 16, 35 MB (45 MB
+    while each concatenation was copied, until 2026-11-25).  The buffers of the two most recent input
+    sizes are kept (the blind and mixed modes alternate two batch sizes); :func:`release_buffers` frees
+    them.  The border of every buffer stays zero: the kernels write interiors only.  Every interior
+    pixel is written before it is read, except where the last layers make only what the output keeps:
+    there a stale pixel is read only into pixels the output drops.
     """
 
     KEEP_SIZES = 2

@@ -16,16 +16,23 @@ __all__ = ["conv3x3", "conv_padded"]
 
 
 def conv_padded(xp: np.ndarray, weight: np.ndarray, bias: np.ndarray, slope: float | None,
-                out: np.ndarray | None = None) -> np.ndarray:
+                out: np.ndarray | None = None, skip: np.ndarray | None = None,
+                region: tuple[int, int] | None = None) -> np.ndarray:
     """:func:`conv3x3` without argument checks, on zero-bordered input, for the U-Net's layers.
 
     The caller has checked the arrays: ``xp`` is ``(N, Cin, H + 2, W + 2)`` float32 with a zero border,
     ``weight`` and ``bias`` float32 and C-contiguous; the result goes into ``out`` (a new zero-bordered buffer by
-    default), whose border stays zero.
+    default), whose border stays zero.  ``skip`` (same layout as ``xp``) holds input channels that follow
+    ``xp``'s: the layer reads the concatenation ``[xp, skip]`` without it being copied.  ``region = (rows,
+    cols)`` writes only the first ``rows × cols`` of the output's interior (each value the same as without
+    it); it needs the input's first ``rows + 1`` rows and ``cols + 1`` columns (or all of them).
     """
     n, _, hp, wp = xp.shape
     out = padded_empty(n, weight.shape[0], hp - 2, wp - 2) if out is None else out
-    conv3x3_direct(xp, weight, bias, np.float32(0.0 if slope is None else slope), slope is not None, out)
+    rows, cols = (hp - 2, wp - 2) if region is None else region
+    xq = np.empty((n, 0, hp, wp), dtype=np.float32) if skip is None else skip
+    conv3x3_direct(xp, xq, weight, bias, np.float32(0.0 if slope is None else slope), slope is not None,
+                   rows, cols, out)
     return out
 
 

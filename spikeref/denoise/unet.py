@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from spikeref.denoise._unet_kernels import buffers, maxpool_into, release_buffers, upsample_concat_into
+from spikeref.denoise._unet_kernels import buffers, maxpool_into, release_buffers, upsample_into
 from spikeref.denoise.conv import conv_padded
 from spikeref.io.unet_weights import WEIGHTS_FORMAT, read_unet_weights, write_unet_weights
 
@@ -202,28 +202,39 @@ class UNet:
         m = self.spec.multiple
         ph, pw = (-h) % m, (-w) % m
         xp = np.pad(x.astype(np.float32), ((0, 0), (0, ph), (0, pw)), mode="reflect")  # a side of 1 repeats
-        out = self._forward(xp)[:, :h, :w]
+        out = self._forward(xp, keep=(h, w))[:, :h, :w]
         return np.ascontiguousarray(out[0] if single else out)
 
-    def _forward(self, x: np.ndarray) -> np.ndarray:
+    def _forward(self, x: np.ndarray, keep: tuple[int, int] | None = None) -> np.ndarray:
         """The layers on a padded batch ``(N, h, w)`` float32.
 
-        Activations are kept channel-first with a zero border of one pixel,
-        ``(N, C, H + 2, W + 2)``, so each convolution reads its input in place.
+        Activations are kept channel-first with a zero border of one pixel, ``(N, C, H + 2, W + 2)``, so
+        each convolution reads its input in place.  ``keep = (h0, w0)``: only the output's first ``h0``
+        rows and ``w0`` columns are wanted, so the layers after the last upsampling make only those, one
+        more row and column per layer still to come (the same values; the other pixels are left unset).
         """
         slope = self.spec.negative_slope
         params = self.params
         n, h, w = x.shape
         if h % self.spec.multiple or w % self.spec.multiple:  # __call__ pads; pooling needs it
             raise ValueError(f"_forward needs sizes that are multiples of {self.spec.multiple}; got {h}×{w}")
+        h0, w0 = (h, w) if keep is None else keep
         pool = buffers()
         pool.start((n, h, w))
 
-        def conv(name, t, act=True):
-            """The layer on ``t``, whose buffer no later layer reads: it is released."""
+        def region(after):
+            """What the output needs of a layer with ``after`` layers to come, past the last upsampling.
+
+            Columns go up to whole vectors of 16: a scalar remainder would cost more than it saves.
+            """
+            return min(h, h0 + after), min(w, -(-(w0 + after) // 16) * 16)
+
+        def conv(name, t, act=True, skip=None, after=None):
+            """The layer on ``t`` (then ``skip``'s channels), then ``t``'s buffer is released."""
             weight, bias = params[f"{name}.weight"], params[f"{name}.bias"]
             out = conv_padded(t, weight, bias, slope if act else None,
-                               pool.take(t.shape[0], weight.shape[0], t.shape[2] - 2, t.shape[3] - 2))
+                               pool.take(t.shape[0], weight.shape[0], t.shape[2] - 2, t.shape[3] - 2),
+                               skip=skip, region=None if after is None else region(after))
             pool.give(t)
             return out
 
@@ -241,12 +252,15 @@ class UNet:
         for k in range(self.spec.depth, 0, -1):
             skip = skips.pop()
             c, hh, ww = t.shape[1], skip.shape[2] - 2, skip.shape[3] - 2
-            cat = pool.take(n, c + skip.shape[1], hh, ww)
-            upsample_concat_into(t, skip, cat)  # [nearest ×2 of t, skip]
+            last = k == 1  # full resolution: five layers to go (dec1a, dec1b, tail0, tail1, tail2)
+            up = pool.take(n, c, hh, ww)
+            upsample_into(t, *(region(5) if last else (hh, ww)), up)
             pool.give(t)
+            # the layer reads [nearest ×2 of t, skip], the skip where it lies
+            t = conv(f"dec{k}a", up, skip=skip, after=4 if last else None)
             pool.give(skip)
-            t = conv(f"dec{k}b", conv(f"dec{k}a", cat))
-        t = conv("tail2", conv("tail1", conv("tail0", t)), act=False)
+            t = conv(f"dec{k}b", t, after=3 if last else None)
+        t = conv("tail2", conv("tail1", conv("tail0", t, after=2), after=1), act=False, after=0)
         out = t[:, 0, 1:-1, 1:-1].copy()  # the caller's own array: the buffer goes back to the pool
         pool.give(t)
         return out
