@@ -67,7 +67,7 @@ RUNG_LABELS = {
     "no_align": "no alignment", "no_denoiser": "no denoiser", "paper": "paper's Fig. 3(b)", "ours": "ours",
     "true_flow": "true flow",
     "true_flow_d": "true flow + D", "true_flow_bm3d": "true flow + BM3D",
-    "true_flow_clean": "true flow, noise-free", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
+    "true_flow_clean": "true flow (noise-free)", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
     "limit_mhc": "limit, MHC demosaic", "ours_count": "ours, Eq. 4 count",
 }
 #: Columns that are options beside the ladder (another demosaic, Eq. 4's counts), not rungs of it.
