@@ -15,7 +15,7 @@ PSNR (dB, Ψ in linear RGB against the 10-plane ground truth, as the ladder) of
 * ``noise_rel``: that σ over the mean of the reference window's noise-free planes.
 
 The held-out set is ``scripts/heldout_scenes`` at seed 11, the bench the benchmark's scenes at seed 0.
-Needs the test and peers extras (photographs from scikit-image, the ``bm3d`` package); about 1 min
+Needs the test and peers extras (photographs from scikit-image, the ``bm3d`` package); about 2 min
 per set on two cores.
 """
 
@@ -31,6 +31,7 @@ from spikeref.bench.ladder import _score, binomial_weights, true_flow_frame
 from spikeref.bench.runner import bench_scenes, load_bench_scene, score_centres
 from spikeref.charge import window_charge
 from spikeref.denoise.peers import PeerDenoiser
+from spikeref.simulate.simulator import ground_truth
 
 HELDOUT = Path(__file__).resolve().parent / "heldout_scenes"
 
@@ -70,8 +71,8 @@ def main(argv=None) -> None:
             first = (t - w // 2 - offset) // w - reach
             start = offset + first * w
             truth = sc.reference(t)
-            clean = np.stack([bayer_planes(mosaic_of(sc.reference(start + j * w + w // 2)), cfa)
-                              for j in range(2 * reach + 1)]) * np.float32(w)
+            truths = ground_truth(sc.scene, w, planes=start + (2 * reach + 1) * w, start=start)
+            clean = np.stack([bayer_planes(mosaic_of(g), cfa) for g in truths]) * np.float32(w)
             clean_tf = true_flow_frame(clean, sc.scene.content, w, start, reach, weights)
             charges = bayer_planes(window_charge(view, w, start=first * w, count=2 * reach + 1), cfa)
             tf = true_flow_frame(charges, sc.scene.content, w, start, reach, weights)

@@ -11,12 +11,14 @@ from __future__ import annotations
 import argparse
 import contextlib
 import errno
+import importlib.util
 import math
 import os
 import select
 import shlex
 import signal
 import sys
+import tempfile
 import threading
 import warnings
 from pathlib import Path
@@ -120,6 +122,13 @@ def _check_folder_can_exist(folder: Path, flag: str, target: Path) -> None:
         raise CliError(f"{flag} {target}: cannot write there ({p} is not a folder)")
     if not os.access(p, os.W_OK | os.X_OK):
         raise CliError(f"{flag} {target}: cannot write there ({p} is not writable)")
+    try:  # the permission bits do not tell everything (root, read-only mounts, /proc): make a file and remove it
+        fd, probe = tempfile.mkstemp(dir=p, prefix=".spikeref-probe-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        raise CliError(f"{flag} {target}: cannot write there (cannot make a file in {p}: {exc.strerror or exc})") \
+            from None
 
 
 def _check_output_file(path: Path | None, flag: str, suffixes: tuple[str, ...], kind: str) -> None:
@@ -166,12 +175,15 @@ def _load_denoiser(weights, *, accumulate: str | None = None, **kw):
     """
     import zipfile
 
-    from spikeref.denoise.denoiser import Denoiser
+    from spikeref.denoise.denoiser import WEIGHTS_DIR, Denoiser
 
     try:
         den = Denoiser.load(weights, **kw)
     except (zipfile.BadZipFile, EOFError, KeyError) as exc:
         raise CliError(f"--weights {weights}: not a readable weights .npz ({type(exc).__name__}: {exc})") from None
+    except FileNotFoundError:
+        names = ", ".join(sorted(p.stem for p in WEIGHTS_DIR.glob("*.npz")))
+        raise CliError(f"--weights {weights}: no such weights file, nor a bundled name ({names})") from None
     trained = den.unet.meta.get("accumulate", "count")
     if accumulate is not None and trained != accumulate:
         what = {"count": "Eq. 4 windows (counts)", "charge": "window charges"}
@@ -513,6 +525,10 @@ def cmd_reconstruct(args) -> int:
                                 ("demosaic", args.demosaic), ("accumulate", args.accumulate)) if v is not None}
     if args.no_denoiser:
         chosen["denoise"] = False
+    for value, flag, low in ((args.window, "-W/--window", 1), (args.K, "-K", 1), (args.L, "-L", 0)):
+        _check_int(value, flag, low, f"a whole number ≥ {low}")
+    if args.K % 2 == 0:
+        raise CliError(f"-K must be odd (the reference is the middle window); got {args.K}")
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, mode=args.mode,
                                       align=not args.no_align, **chosen)
     if args.resample is not None and (params.warp == "progressive" or not params.align):
@@ -607,15 +623,23 @@ def _run_record(stream, params, args, guard, shrink) -> dict:
 
 
 def _check_resume_record(exr_dir, record, resume: bool) -> None:
-    """With ``--resume``, refuse a folder whose frames were made with other settings; then record this run's."""
+    """Refuse a folder whose frames were made with other settings; then record this run's.
+
+    With ``--resume`` any other settings are refused; without it too when the folder holds frames (this
+    run would overwrite some of them and leave the rest: one folder would mix two settings).
+    """
     from spikeref.render import RUN_RECORD, run_record_differences, write_run_record
 
-    if resume:
-        differ = run_record_differences(exr_dir, record)
-        if differ:
-            shown = ", ".join(differ[:6]) + (f" and {len(differ) - 6} more" if len(differ) > 6 else "")
+    differ = run_record_differences(exr_dir, record)
+    if differ:
+        shown = ", ".join(differ[:6]) + (f" and {len(differ) - 6} more" if len(differ) > 6 else "")
+        if resume:
             raise CliError(f"--resume: the frames in {exr_dir} were made with other settings ({shown}; see "
                            f"{RUN_RECORD} there): resume with the same options, or write to another --exr-dir")
+        if any(Path(exr_dir).glob("frame_*.exr")):
+            raise CliError(f"--exr-dir {exr_dir} holds frames made with other settings ({shown}; see {RUN_RECORD} "
+                           f"there): this run would mix its frames with them. Write to another --exr-dir, or "
+                           f"delete that folder's frames first")
     write_run_record(exr_dir, record)
 
 
@@ -629,6 +653,9 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
         raise CliError("give --workers (a local cluster) or --scheduler (an existing one), not both")
     if args.workers is not None and args.workers < 1:
         raise CliError(f"--workers must be at least 1; got {args.workers}")
+    if importlib.util.find_spec("distributed") is None:  # refused before any output exists
+        raise CliError(f"{'--workers' if args.workers is not None else '--scheduler'} needs Dask: "
+                       f"pip install 'spikeref[dask]'")
     if args.chunk_frames < 1:
         raise CliError(f"--chunk-frames: chunk_frames must be a positive integer (frames per task); "
                        f"got {args.chunk_frames}")
@@ -1068,9 +1095,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--weights", type=Path, default=None,
-                   help="weights .npz, or a bundled name: b2u_w16 (the default with counts) or b2u_w32 (counts; "
-                        "slower), pairs_w16_charge (the default with --accumulate charge) or b2u_w16_charge (charges, "
-                        "the paper's loss)")
+                   help="weights .npz, or a bundled name: b2u_w16 (the default with counts) or b2u_w32 (trained "
+                        "on rates; slower), pairs_w16_charge (the default with --accumulate charge) or "
+                        "b2u_w16_charge (charges, the paper's loss)")
     p.add_argument("--start", type=int, default=0, help="first plane")
     p.add_argument("--frames", default=None,
                    help="frame numbers a:b (b excluded; frame k is planes start + kW … start + (k+1)W − 1), or N for "
@@ -1206,10 +1233,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ladder", action="store_true",
                    help="the stage ladder instead of the grid: per scene, TFP(W), BM3D / NLM on one window "
                         "(extra peers), the denoiser on one window, TFP(support), no alignment, no denoiser, "
-                        "ours, the true-flow ceiling with and without the denoiser, with BM3D after it, on noise-free "
-                        "windows, and the limit (the noise-free mosaic through Ψ), plus the flow's end-point error per step; at W/K/L from -W/-K/-L "
-                        "(default 10/3/3). Writes ladder.csv, ladder.md and (with spikeref[plot]) ladder.png; "
-                        "~3 min on 2 cores")
+                        "ours, the true-flow ceiling (alone, with the denoiser, with BM3D, on noise-free "
+                        "windows), and the limit (the noise-free mosaic through Ψ), plus the flow's end-point "
+                        "error per step; at W/K/L from -W/-K/-L (default 10/3/3). Writes ladder.csv, ladder.md "
+                        "and (with spikeref[plot]) ladder.png into --out; about 100 s on 2 cores with the "
+                        "peers extra")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_bench)
 

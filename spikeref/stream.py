@@ -12,6 +12,7 @@ instantly and is read one window at a time.  :func:`read_dat`, :func:`load_spike
 from __future__ import annotations
 
 import mmap
+import zipfile
 from pathlib import Path
 from typing import Iterator
 
@@ -301,6 +302,35 @@ NPZ_SPIKE_KEYS = ("spikes", "spk")
 ARRAY_AXES = ("THW", "HWT")
 
 
+def _read_array_file(path: Path, read):
+    """``read()``, with a damaged or foreign ``.npy``/``.npz`` file (truncated, not NumPy's, holding
+    Python objects) reported as one ``ValueError`` that names it."""
+    try:
+        return read()
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        if isinstance(exc, ValueError) and str(exc).startswith(str(path)):
+            raise
+        why = "not NumPy array data" if "pickle" in str(exc) else str(exc)
+        raise ValueError(f"{path}: not a readable {path.suffix.lower()} spike file ({why})") from None
+
+
+def _npz_spikes(path: Path, key: str | None) -> np.ndarray:
+    """The spikes' array of an ``.npz`` file: ``key``, else the first of :data:`NPZ_SPIKE_KEYS`, else its only one."""
+    data = np.load(path)
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise ValueError(f"{path}: holds one array, as a .npy file does: name it .npy")
+    with data:
+        keys = list(data.files)
+        if key is None:
+            key = next((k for k in NPZ_SPIKE_KEYS if k in keys), keys[0] if len(keys) == 1 else None)
+            if key is None:
+                raise ValueError(f"{path}: no key {' or '.join(map(repr, NPZ_SPIKE_KEYS))} and more than one "
+                                 f"array; found keys {keys}: name the spikes' key")
+        elif key not in keys:
+            raise ValueError(f"{path}: no key {key!r}; found keys {keys}")
+        return data[key]
+
+
 def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, *,
                 key: str | None = None, axes: str = "THW", **kw):
     """Open a spike file by its suffix: ``.dat`` (memory-mapped), ``.npy`` or ``.npz``.
@@ -318,6 +348,8 @@ def load_spikes(path, height: int | None = None, width: int | None = None, cfa: 
         raise ValueError(f"axes must be one of {', '.join(ARRAY_AXES)}; got {axes!r}")
     if key is not None and not isinstance(key, str):
         raise TypeError(f"key must be a string or None; got {type(key).__name__}")
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder; give a spike file in it (.dat, .npy or .npz)")
     if not path.is_file():
         raise FileNotFoundError(f"no such spike file: {path}")
     if suffix == ".dat":
@@ -327,18 +359,9 @@ def load_spikes(path, height: int | None = None, width: int | None = None, cfa: 
     if suffix == ".npy":
         if key is not None:
             raise ValueError(f"{path}: a .npy file holds one array; key is for .npz files")
-        arr = np.load(path, mmap_mode="r")
+        arr = _read_array_file(path, lambda: np.load(path, mmap_mode="r"))
     elif suffix == ".npz":
-        with np.load(path) as data:
-            keys = list(data.files)
-            if key is None:
-                key = next((k for k in NPZ_SPIKE_KEYS if k in keys), keys[0] if len(keys) == 1 else None)
-                if key is None:
-                    raise ValueError(f"{path}: no key {' or '.join(map(repr, NPZ_SPIKE_KEYS))} and more than one "
-                                     f"array; found keys {keys}: name the spikes' key")
-            elif key not in keys:
-                raise ValueError(f"{path}: no key {key!r}; found keys {keys}")
-            arr = data[key]
+        arr = _read_array_file(path, lambda: _npz_spikes(path, key))
     else:
         raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")
     if axes == "HWT":

@@ -180,6 +180,14 @@ def test_reconstruct_chunks_and_resume_equal_one_run(tmp_path, random_weights, c
     err = capsys.readouterr().err
     assert "--resume: the frames in" in err and "were made with other settings (denoiser, params.denoise;" in err
     assert sorted((p.name, p.stat().st_mtime_ns) for p in (tmp_path / "b").iterdir()) == before
+    # without --resume too: it would overwrite some frames and keep the others (a folder of two settings)
+    assert main(["reconstruct", "--exr-dir", str(tmp_path / "b"), "--frames", "2:3", "--no-denoiser", "-L", "2"]) == 2
+    err = capsys.readouterr().err
+    assert f"--exr-dir {tmp_path / 'b'} holds frames made with other settings (denoiser, params.denoise;" in err
+    assert "would mix" in err
+    assert sorted((p.name, p.stat().st_mtime_ns) for p in (tmp_path / "b").iterdir()) == before
+    # the same settings without --resume overwrite as they always did
+    assert main(["reconstruct", "--exr-dir", str(tmp_path / "b"), "--frames", "2:3", *w]) == 0
     (tmp_path / "b" / "spikeref_run.json").unlink()  # a folder from before the record: resumed as it is
     assert main(["reconstruct", "--exr-dir", str(tmp_path / "b"), "--frames", "2:7", "--resume", *w]) == 0
     assert "5 already written" in capsys.readouterr().err
@@ -268,8 +276,10 @@ def test_resume_recomputes_empty_truncated_and_foreign_frames(tmp_path, random_w
     (["--paper", "--resample", "path"], "--resample path applies to the composed and chained warps; this run uses "
                                         "the progressive warp"),
     (["--frames", "5"], "--frames must look like a:b"),
-    (["-K", "2"], "K must be odd"),
-    (["-W", "0"], "window must be an integer ≥ 1"),
+    (["-K", "2"], "-K must be odd (the reference is the middle window); got 2"),
+    (["-W", "0"], "-W/--window must be a whole number ≥ 1; got 0"),
+    (["-L", "-1"], "-L must be a whole number ≥ 0; got -1"),
+    (["--weights", "nosuch"], "--weights nosuch: no such weights file, nor a bundled name (b2u_w16, "),
     (["-W", "40"], "needs ((K−1)L+1)·W = 280 planes"),
     (["--resume"], "--resume needs --exr-dir"),
 ])
@@ -380,3 +390,14 @@ def test_commands_without_outputs_write_named_defaults(tmp_path, monkeypatch, ca
     assert capsys.readouterr().err.splitlines()[-len(written):] == [f"wrote {name}" for name in written]
     exrs = sorted((tmp_path / written[-1]).glob("*.exr"))
     assert exrs and np.isfinite(read_exr(exrs[0])).all()
+
+
+def test_workers_without_dask_are_refused_before_any_output(tmp_path, capsys, monkeypatch):
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: None if name == "distributed" else real(name, *a))
+    out = tmp_path / "exr"
+    assert main(["reconstruct", "--exr-dir", str(out), "--workers", "2"]) == 2
+    assert "--workers needs Dask: pip install 'spikeref[dask]'" in capsys.readouterr().err
+    assert not out.exists()

@@ -154,7 +154,7 @@ def test_cli_denoise_errors(tmp_path, capsys):
     assert main(["denoise", str(tmp_path / "none.dat"), "-o", str(tmp_path / "x.mp4")]) == 2
     assert "no such file" in capsys.readouterr().err
     assert main(["denoise", "--frames", "1", "-o", str(tmp_path / "x.mp4"), "--weights", str(tmp_path / "w.npz")]) == 2
-    assert "no weights file" in capsys.readouterr().err
+    assert "no such weights file, nor a bundled name" in capsys.readouterr().err
 
 
 def test_cli_train_writes_weights(tmp_path):

@@ -138,9 +138,9 @@ BAD = [
      "--height must be a positive"),
     ("reconstruct: --rate-hz -5", lambda d: ["reconstruct", "--rate-hz", "-5", "--frames", "3:4"],
      "--rate-hz must be a finite number > 0"),
-    ("reconstruct: -W 0", lambda d: ["reconstruct", "-W", "0"], "window must be an integer ≥ 1"),
+    ("reconstruct: -W 0", lambda d: ["reconstruct", "-W", "0"], "-W/--window must be a whole number ≥ 1"),
     ("reconstruct: -K 2", lambda d: ["reconstruct", "-K", "2"], "K must be odd"),
-    ("reconstruct: -L -1", lambda d: ["reconstruct", "-L", "-1"], "L must be an integer ≥ 0"),
+    ("reconstruct: -L -1", lambda d: ["reconstruct", "-L", "-1"], "-L must be a whole number ≥ 0"),
     ("reconstruct: --frames 5:3", lambda d: ["reconstruct", "--frames", "5:3"], "--frames 5:3"),
     ("reconstruct: --frames 0:100", lambda d: ["reconstruct", "--frames", "0:100"], "this stream has frames 3:23"),
     ("reconstruct: --frames a:b", lambda d: ["reconstruct", "--frames", "a:b"], "integer frame numbers"),
@@ -522,8 +522,9 @@ def test_debug_shows_the_traceback(tmp_path, monkeypatch, capsys):
         main(["reconstruct", "--debug", "--exr-dir", str(tmp_path / "o"), "--frames", "3:4", *FAST])
     assert isinstance(info.value.__cause__, OSError) and info.value.__cause__.errno == errno.ENOSPC
     monkeypatch.setenv("SPIKEREF_DEBUG", "1")
-    with pytest.raises(ValueError, match="K must be odd"):
-        main(["reconstruct", "-K", "2"])
+    (tmp_path / "text.npz").write_text("not spikes")
+    with pytest.raises(ValueError, match="not a readable .npz spike file"):
+        main(["reconstruct", str(tmp_path / "text.npz")])
 
 
 # ----------------------------------------------------------------------------- signals to a real process

@@ -112,3 +112,25 @@ def test_load_spikes_key_and_axes(tmp_path):
     np.save(tmp_path / "flat.npy", spikes[0])
     with pytest.raises(ValueError, match=r"must have shape \(H, W, T\) with axes='HWT'; got shape \(4, 6\)"):
         load_spikes(tmp_path / "flat.npy", axes="HWT")
+
+
+def test_damaged_array_files_are_one_error_naming_the_file(tmp_path):
+    """A truncated .npz, a text file named .npz/.npy, a .npy named .npz: one ValueError naming the file."""
+    from spikeref.stream import load_spikes
+
+    spikes = (np.random.default_rng(1).random((12, 4, 6)) < 0.3).astype(np.uint8)
+    np.savez(tmp_path / "whole.npz", spikes=spikes)
+    (tmp_path / "cut.npz").write_bytes((tmp_path / "whole.npz").read_bytes()[:60])
+    (tmp_path / "text.npz").write_text("hello")
+    (tmp_path / "text.npy").write_text("hello")
+    np.save(tmp_path / "one.npy", spikes)
+    (tmp_path / "one.npz").write_bytes((tmp_path / "one.npy").read_bytes())
+    for name, why in (("cut.npz", "not a readable .npz spike file"), ("text.npz", r"\(not NumPy array data\)"),
+                      ("text.npy", r"\.npy spike file \(not NumPy array data\)"),
+                      ("one.npz", "holds one array, as a .npy file does: name it .npy")):
+        with pytest.raises(ValueError, match=why) as info:
+            load_spikes(tmp_path / name)
+        assert str(info.value).startswith(f"{tmp_path / name}: ")
+    np.testing.assert_array_equal(load_spikes(tmp_path / "one.npy").window(0, 12), spikes)
+    with pytest.raises(ValueError, match=r"is a folder; give a spike file in it \(.dat, .npy or .npz\)"):
+        load_spikes(tmp_path)

@@ -28,10 +28,11 @@ rung                what it is
                     does for charges, the reference window for its noise)
 ``true_flow_bm3d``  the same, then BM3D on each Bayer plane (σ estimated blind): the classical peer
                     after a perfect merge
-``true_flow_clean`` the same warp and weights on the *noise-free* windows (each window's exact ground
-                    truth, mosaicked): what the resampling itself costs; between it and ``true_flow`` is
-                    the noise left after the merge, between it and ``limit`` the loss of resampling
-                    half-resolution Bayer planes
+``true_flow_clean`` the same warp and weights on the *noise-free* windows (the exact ground truth of
+                    each window's ``W`` planes, mosaicked): between it and ``true_flow`` is the noise left
+                    after the merge; between it and ``limit``, what resampling half-resolution Bayer
+                    planes costs, and where a layer occludes another, the warp's error there (the
+                    exact flow carries no occlusion)
 ``limit``           the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
 ``ours_mhc``,       beyond Ψ: ours and the limit with the Malvar–He–Cutler demosaic instead of Ψ for
 ``limit_mhc``       the output (:mod:`spikeref.demosaic`, ``ReconstructParams(demosaic="mhc")``)
@@ -181,6 +182,7 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
     from spikeref.bayer import bayer_mosaic, bayer_planes, cfa_channel_map, demosaic_bilinear
     from spikeref.pipeline import ReconstructParams, Reconstructor, exposure_planes
     from spikeref.simulate.motion import plane_flow
+    from spikeref.simulate.simulator import ground_truth
 
     stream, cfa = sc.stream, sc.stream.cfa
     w, K, L = setting.window, setting.K, setting.L
@@ -240,9 +242,10 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                 if "true_flow_bm3d" in rungs:
                     out["true_flow_bm3d"].append(psi(peers["bm3d"](tf, window=exposure_planes(w, K, L))))
                 if "true_flow_clean" in rungs:
-                    # each window's exact ground truth as its Bayer planes, in counts as the windows give
-                    clean = np.stack([bayer_planes(mosaic_of(sc.reference(offset + (first + j) * w + w // 2)), cfa)
-                                      for j in range(2 * reach + 1)]) * np.float32(w)
+                    # each window's exact ground truth (its own W planes) as Bayer planes, in counts as the windows
+                    start = offset + first * w
+                    truths = ground_truth(sc.scene, w, planes=start + (2 * reach + 1) * w, start=start)
+                    clean = np.stack([bayer_planes(mosaic_of(g), cfa) for g in truths]) * np.float32(w)
                     out["true_flow_clean"].append(psi(true_flow_frame(clean, sc.scene.content, w, offset + first * w,
                                                                       reach, weights)))
                 if "true_flow" in rungs:
@@ -317,8 +320,9 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
     frames : int
         Scored frames per scene (:func:`~spikeref.bench.runner.score_centres`).
     peers : sequence of str
-        Classical peers to run (``bm3d``, ``nlm``); a peer whose package is missing is left out
-        with a note in ``result["notes"]``.
+        Classical peers to run (``bm3d``, ``nlm``); a peer whose package is missing, or not given, is
+        left out with its rungs (:data:`PEER_RUNGS`: without BM3D also ``true_flow_bm3d``), with a note
+        in ``result["notes"]`` when its package is missing.
     rungs : sequence of str
         Which rungs to run (default all, :data:`RUNGS`).
     params : dict, optional

@@ -88,10 +88,10 @@ def conv3x3_direct(xp, xq, weight, bias, slope, act, rows, cols, out):
     # out: (n, cout, h + 2, w + 2) float32 -- the interior's first `rows` rows and `cols` columns
     # are written, the rest of the interior and the border are left to the caller (an output that
     # only its first rows and columns are wanted of needs only those of each layer before it, one
-    # more per layer).  One job = one output row of four output channels (the last group computes
-    # only the channels that exist).  fastmath "contract" allows only the fusion of a product and a
-    # sum into one FMA; no reassociation, so every value is summed in the same order whatever rows,
-    # cols and the thread count are.
+    # more per layer).  One job = one output row of four output channels (a last group of one
+    # channel computes it once; of two or three, the clamped repeats too).  fastmath "contract"
+    # allows only the fusion of a product and a sum into one FMA; no reassociation, so every value
+    # is summed in the same order whatever rows, cols and the thread count are.
     n, cp, hp, wp = xp.shape
     cq = xq.shape[1]
     cout = weight.shape[0]
@@ -112,7 +112,7 @@ def conv3x3_direct(xp, xq, weight, bias, slope, act, rows, cols, out):
         b[:] = bias[o1]
         c[:] = bias[o2]
         d[:] = bias[o3]
-        for ci in range(cp + cq):  # xp's channels, then xq's, each by its own loop: one source per loop
+        for ci in range(cp + cq):  # xp's channels, then xq's
             if ci < cp:
                 r0 = xp[i, ci, y]
                 r1 = xp[i, ci, y + 1]

@@ -210,8 +210,9 @@ class UNet:
 
         Activations are kept channel-first with a zero border of one pixel, ``(N, C, H + 2, W + 2)``, so
         each convolution reads its input in place.  ``keep = (h0, w0)``: only the output's first ``h0``
-        rows and ``w0`` columns are wanted, so the layers after the last upsampling make only those, one
-        more row and column per layer still to come (the same values; the other pixels are left unset).
+        rows and ``w0`` columns are wanted, so the layers after the last upsampling make only those and one
+        more row and column per layer still to come (columns up to a multiple of 16), each wanted pixel the
+        same value as without ``keep``; the other pixels are unset or computed from unset ones.
         """
         slope = self.spec.negative_slope
         params = self.params

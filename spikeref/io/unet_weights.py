@@ -9,6 +9,7 @@ given shape has, and their shapes, is checked by :class:`~spikeref.denoise.unet.
 from __future__ import annotations
 
 import json
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,7 @@ def read_unet_weights(path) -> tuple[dict, dict[str, np.ndarray], dict]:
     try:
         with np.load(path, allow_pickle=False) as z:
             data = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         raise ValueError(f"{path}: not a weights .npz ({exc})") from None
     fmt = str(data.pop("format", ""))
     if fmt != WEIGHTS_FORMAT:
