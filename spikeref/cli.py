@@ -281,8 +281,13 @@ def open_input(args):
         except ValueError:
             raise CliError(f"--cfa {cfa}: not a colour pattern; give one of {', '.join(CFA_PATTERNS)} or mono") \
                 from None
-    return open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
-                           file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
+    stream = open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
+                             file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
+    if path.suffix.lower() in (".npy", ".npz") and args.axes == "THW" and len(stream) < min(stream.height,
+                                                                                             stream.width):
+        print(f"note: {path.name} read as {len(stream)} planes of {stream.height}×{stream.width} (planes first); "
+              f"if it is stored planes-last (H, W, T), give --axes HWT", file=sys.stderr)
+    return stream
 
 
 # ------------------------------------------------------------------------------ info

@@ -311,10 +311,14 @@ def test_array_files_by_key_and_axis_order(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "planes      40" in out and "size        16 × 24 pixels" in out
     assert main(["info", str(tmp_path / "sim.npz"), "--axes", "HWT"]) == 0
-    out = capsys.readouterr().out
-    assert "planes      40" in out and "size        16 × 24 pixels" in out
+    got = capsys.readouterr()
+    assert "planes      40" in got.out and "size        16 × 24 pixels" in got.out and "note:" not in got.err
     assert main(["info", str(tmp_path / "sim.npz")]) == 0  # planes first: 16 planes of 24×40, as stored
-    assert "planes      16" in capsys.readouterr().out
+    got = capsys.readouterr()
+    assert "planes      16" in got.out
+    # fewer planes than rows and columns: a hint that the file may be planes-last
+    assert "note: sim.npz read as 16 planes of 24×40 (planes first); if it is stored planes-last (H, W, T), " \
+           "give --axes HWT" in got.err
     assert main(["info", str(tmp_path / "zoo.npz"), "--key", "nope"]) == 2
     assert "no key 'nope'; found keys ['spk', 'label']" in capsys.readouterr().err
 
