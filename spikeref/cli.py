@@ -281,13 +281,15 @@ def open_input(args):
         except ValueError:
             raise CliError(f"--cfa {cfa}: not a colour pattern; give one of {', '.join(CFA_PATTERNS)} or mono") \
                 from None
-    stream = open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
-                             file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
-    if path.suffix.lower() in (".npy", ".npz") and args.axes == "THW" and len(stream) < min(stream.height,
-                                                                                             stream.width):
-        print(f"note: {path.name} read as {len(stream)} planes of {stream.height}×{stream.width} (planes first); "
-              f"if it is stored planes-last (H, W, T), give --axes HWT", file=sys.stderr)
-    return stream
+    return open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
+                           file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
+
+
+def _axes_said(stream, args) -> str:
+    """How an array file's axes were read, for the lines that give its size ("" for a .dat)."""
+    if stream.path is None or Path(stream.path).suffix.lower() not in (".npy", ".npz"):
+        return ""
+    return " (planes first, --axes THW)" if args.axes == "THW" else " (stored planes-last, --axes HWT)"
 
 
 # ------------------------------------------------------------------------------ info
@@ -328,6 +330,9 @@ def cmd_info(args) -> int:
     print(f"size        {h} × {w} pixels{stored}")
     print(f"plane size  {plane_bytes} bytes packed")
     print(f"cfa         {stream.cfa or 'mono'}")
+    if _axes_said(stream, args):
+        how = "planes first; --axes HWT reads a planes-last array" if args.axes == "THW" else "planes last"
+        print(f"axes        {args.axes} ({how})")
     print(f"rate        {stream.rate_hz:g} planes/s")
     print(f"duration    {stream.duration_s * 1000:.3f} ms")
     sys.stdout.flush()  # the layout shows at once, before any counting
@@ -350,11 +355,11 @@ def cmd_info(args) -> int:
     rates = total / counted
     print(f"mean rate   {rates.mean():.5f} spikes/readout over all pixels")
     if h % 2 == 0 and w % 2 == 0:
-        names = list(stream.cfa) if stream.cfa else ["(0,0)", "(0,1)", "(1,0)", "(1,1)"]
+        names = list(stream.cfa) if stream.cfa else [""] * 4  # a mono sensor's 2×2 phases have no colour
         per_plane = bayer_planes(rates).mean(axis=(-1, -2))
-        print("per Bayer plane (spikes/readout):")
+        print("per Bayer plane (spikes/readout):" if stream.cfa else "per 2×2 phase (spikes/readout):")
         for pos, (name, r) in enumerate(zip(names, per_plane, strict=True)):
-            print(f"  plane {pos} at ({pos // 2},{pos % 2}) {name:>5}: {r:.5f}")
+            print(f"  plane {pos} at ({pos // 2},{pos % 2}){' ' + name if name else ''}: {r:.5f}")
     return 0
 
 
@@ -390,10 +395,16 @@ def _say_written(*paths) -> None:
 
 # -------------------------------------------------------------------------- denoise
 def _denoise_frames(text: str | None, total: int) -> range:
-    """``denoise --frames``: ``a:b`` (frame numbers, b excluded, as ``reconstruct``'s) or ``N`` (= ``0:N``),
-    inside the ``total`` whole windows from ``--start``; a count past the end is cut to the end."""
+    """``denoise --frames`` (:func:`_frames_within`) inside the ``total`` whole windows from ``--start``."""
     if text is None:
         return range(total)
+    return _frames_within(text, range(total), "there are frames 0:{stop} (whole windows from --start)")
+
+
+def _frames_within(text: str, avail: range, outside: str) -> range:
+    """``--frames``: ``a:b`` (frame numbers, b excluded; a missing end is ``avail``'s) inside ``avail``, or ``N``,
+    the first ``N`` frames of ``avail`` (a count past the end is cut to the end).  An empty range or one outside
+    ``avail`` is refused, the latter with ``outside`` (formatted with ``start`` and ``stop`` of ``avail``)."""
     text = str(text).strip()
     if ":" not in text:
         try:
@@ -402,13 +413,7 @@ def _denoise_frames(text: str | None, total: int) -> range:
             raise CliError(f"--frames must be a:b (frame numbers, b excluded) or a number of frames; "
                            f"got {text!r}") from None
         _check_int(n, "--frames", 1, "a positive number of frames")
-        return range(min(n, total))
-    return _frames_within(text, range(total), "there are frames 0:{stop} (whole windows from --start)")
-
-
-def _frames_within(text: str, avail: range, outside: str) -> range:
-    """``--frames a:b`` (a missing end: ``avail``'s) inside ``avail``; an empty range or one outside
-    ``avail`` is refused, the latter with ``outside`` (formatted with ``start`` and ``stop`` of ``avail``)."""
+        return range(avail.start, min(avail.start + n, avail.stop))
     a, b = parse_frames_option(text)
     a = avail.start if a is None else a
     b = avail.stop if b is None else b
@@ -474,7 +479,9 @@ def parse_frames_option(text: str | None):
 
 
 def _frames_in(args, avail: range, params) -> range:
-    """The ``--frames a:b`` of ``args`` inside the frames ``avail`` the stream has, or a refusal."""
+    """The ``--frames`` of ``args`` (``a:b`` or ``N``) inside the frames ``avail`` the stream has, or a refusal."""
+    if args.frames is None:
+        return avail
     return _frames_within(args.frames, avail, "this stream has frames {start}:{stop}" +
                           f" (W={args.window}, K={args.K}, L={args.L}: frame k needs windows k−{params.reach} … "
                           f"k+{params.reach})")
@@ -581,7 +588,7 @@ def cmd_reconstruct(args) -> int:
     parts += ["Malvar–He–Cutler demosaic"] if params.demosaic == "mhc" else []
     parts += [f"guard {guard}", f"weights {Path(str(args.weights)).stem}"] if params.denoise else ["no denoiser"]
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
-          f" {stream.cfa or 'mono'} → frames {a}:{b} at {fps_out:g} FPS ({', '.join(parts)})"
+          f"{_axes_said(stream, args)} {stream.cfa or 'mono'} → frames {a}:{b} at {fps_out:g} FPS ({', '.join(parts)})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
     written = len(done)  # whole EXR frames of a:b in exr_dir, for the line of an interrupted or failed run
     t_loop = time.perf_counter()
@@ -668,12 +675,7 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
         exr_dir = video.with_name(video.stem + "_exr")
         _check_output_dir(exr_dir, "-o/--output")
     stream = open_input(args)
-    avail = frame_range(len(stream), params.window, params.K, params.L)
-    a, b = parse_frames_option(args.frames)
-    frames = range(avail.start if a is None else a, avail.stop if b is None else b)
-    if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
-        raise CliError(f"--frames {frames.start}:{frames.stop} are outside this stream's frames "
-                       f"{avail.start}:{avail.stop} (W={params.window}, K={params.K}, L={params.L})")
+    frames = _frames_in(args, frame_range(len(stream), params.window, params.K, params.L), params)
     if params.denoise:  # refused here, not on every worker
         _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
     with _output_phase():
@@ -1183,7 +1185,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="denoiser weights .npz, or a bundled name: pairs_w16_charge (the default with charges), "
                         "b2u_w16_charge (charges, the paper's loss), b2u_w16 (the default with counts) or b2u_w32 "
                         "(trained on rates; slower)")
-    p.add_argument("--frames", default=None, help="frame numbers a:b to reconstruct (b excluded; default all); "
+    p.add_argument("--frames", default=None, help="frame numbers a:b to reconstruct (b excluded; default all), "
+                   "or N for the first N; "
                    "chunks give exactly the frames of a full run")
     p.add_argument("--resume", action="store_true",
                    help="skip frames whose EXR file exists in --exr-dir (an interrupted run loses nothing)")

@@ -15,7 +15,17 @@ def test_info_on_the_embedded_sample(capsys):
     assert main(["info"]) == 0
     out = capsys.readouterr().out
     assert "planes      264" in out and "224 × 256" in out and "RGGB" in out
-    assert "plane 3 at (1,1)     B" in out
+    assert "plane 3 at (1,1) B: " in out and "per Bayer plane" in out
+
+
+def test_info_on_a_mono_file_names_phases_not_colours(tmp_path, capsys):
+    spikes = np.zeros((20, 4, 8), np.uint8)
+    spikes[:, 0::2, 0::2] = 1
+    np.save(tmp_path / "m.npy", spikes)
+    assert main(["info", str(tmp_path / "m.npy")]) == 0
+    out = capsys.readouterr().out
+    assert "per 2×2 phase (spikes/readout):" in out and "plane 0 at (0,0): 1.00000" in out
+    assert "plane 3 at (1,1): 0.00000" in out
 
 
 def test_info_reads_a_sidecar_and_reports_rates(tmp_path, capsys):
@@ -275,7 +285,8 @@ def test_resume_recomputes_empty_truncated_and_foreign_frames(tmp_path, random_w
     (["--frames", "5:3"], "--frames 5:3: an empty range"),
     (["--paper", "--resample", "path"], "--resample path applies to the composed and chained warps; this run uses "
                                         "the progressive warp"),
-    (["--frames", "5"], "--frames must look like a:b"),
+    (["--frames", "x"], "--frames must be a:b (frame numbers, b excluded) or a number of frames; got 'x'"),
+    (["--frames", "1:2:3"], "--frames must look like a:b"),
     (["-K", "2"], "-K must be odd (the reference is the middle window); got 2"),
     (["-W", "0"], "-W/--window must be a whole number ≥ 1; got 0"),
     (["-L", "-1"], "-L must be a whole number ≥ 0; got -1"),
@@ -311,14 +322,15 @@ def test_array_files_by_key_and_axis_order(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "planes      40" in out and "size        16 × 24 pixels" in out
     assert main(["info", str(tmp_path / "sim.npz"), "--axes", "HWT"]) == 0
-    got = capsys.readouterr()
-    assert "planes      40" in got.out and "size        16 × 24 pixels" in got.out and "note:" not in got.err
+    out = capsys.readouterr().out
+    assert "planes      40" in out and "size        16 × 24 pixels" in out and "axes        HWT (planes last)" in out
     assert main(["info", str(tmp_path / "sim.npz")]) == 0  # planes first: 16 planes of 24×40, as stored
-    got = capsys.readouterr()
-    assert "planes      16" in got.out
-    # fewer planes than rows and columns: a hint that the file may be planes-last
-    assert "note: sim.npz read as 16 planes of 24×40 (planes first); if it is stored planes-last (H, W, T), " \
-           "give --axes HWT" in got.err
+    out = capsys.readouterr().out
+    assert "planes      16" in out
+    assert "axes        THW (planes first; --axes HWT reads a planes-last array)" in out  # how it was read
+    assert main(["reconstruct", str(tmp_path / "sim.npz"), "--axes", "HWT", "--no-denoiser", "-L", "1",
+                 "--exr-dir", str(tmp_path / "exr"), "--frames", "1:2"]) == 0
+    assert "sim.npz: 40 planes of 16×24 (stored planes-last, --axes HWT) mono" in capsys.readouterr().err
     assert main(["info", str(tmp_path / "zoo.npz"), "--key", "nope"]) == 2
     assert "no key 'nope'; found keys ['spk', 'label']" in capsys.readouterr().err
 
@@ -394,6 +406,18 @@ def test_commands_without_outputs_write_named_defaults(tmp_path, monkeypatch, ca
     assert capsys.readouterr().err.splitlines()[-len(written):] == [f"wrote {name}" for name in written]
     exrs = sorted((tmp_path / written[-1]).glob("*.exr"))
     assert exrs and np.isfinite(read_exr(exrs[0])).all()
+
+
+def test_reconstruct_frames_n_is_the_first_n(tmp_path, capsys):
+    """``--frames N``: the first N frames the stream has (as ``denoise --frames N``), cut at the end."""
+    argv = ["reconstruct", "--no-denoiser", "-L", "1", "--exr-dir"]
+    assert main([*argv, str(tmp_path / "a"), "--frames", "2"]) == 0
+    assert "→ frames 1:3 at" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "a").glob("*.exr")) == ["frame_000001.exr", "frame_000002.exr"]
+    assert main([*argv, str(tmp_path / "b"), "--frames", "9999", "-W", "40"]) == 0
+    assert "→ frames 1:5 at" in capsys.readouterr().err  # cut to the stream: 264 planes are 6 windows of 40
+    assert main([*argv, str(tmp_path / "c"), "--frames", "0"]) == 2
+    assert "--frames must be a positive number of frames; got 0" in capsys.readouterr().err
 
 
 def test_workers_without_dask_are_refused_before_any_output(tmp_path, capsys, monkeypatch):

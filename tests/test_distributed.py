@@ -226,7 +226,7 @@ def test_cli_workers_writes_video_and_frames(recording, tmp_path):
     (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "not both"),
     (["--workers", "0"], "--workers must be at least 1"),
     (["--workers", "1", "--chunk-frames", "0"], "chunk_frames must be a positive integer"),
-    (["--workers", "1", "--frames", "0:5"], "outside this stream's frames 3:14"),
+    (["--workers", "1", "--frames", "0:5"], "--frames 0:5: this stream has frames 3:14"),
 ])
 def test_cli_bad_distributed_options(recording, tmp_path, capsys, argv, match):
     path, _ = recording
