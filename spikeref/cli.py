@@ -281,8 +281,14 @@ def open_input(args):
         except ValueError:
             raise CliError(f"--cfa {cfa}: not a colour pattern; give one of {', '.join(CFA_PATTERNS)} or mono") \
                 from None
-    return open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
-                           file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
+    stream = open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
+                             file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
+    if path.suffix.lower() == ".dat" and (args.height is None or args.width is None) \
+            and not path.with_suffix(".json").is_file():
+        print(f"note: {path.name} has no {path.with_suffix('.json').name} beside it: read as "
+              f"{stream.height}×{stream.width} {stream.cfa or 'mono'} (give --height/--width/--cfa if it is not)",
+              file=sys.stderr)
+    return stream
 
 
 def _axes_said(stream, args) -> str:

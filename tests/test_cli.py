@@ -429,3 +429,15 @@ def test_workers_without_dask_are_refused_before_any_output(tmp_path, capsys, mo
     assert main(["reconstruct", "--exr-dir", str(out), "--workers", "2"]) == 2
     assert "--workers needs Dask: pip install 'spikeref[dask]'" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_dat_without_sidecar_says_what_size_it_assumed(tmp_path, capsys):
+    write_dat(tmp_path / "r.dat", np.zeros((4, 250, 400), np.uint8))
+    assert main(["info", str(tmp_path / "r.dat")]) == 0
+    assert "note: r.dat has no r.json beside it: read as 250×400 mono (give --height/--width/--cfa" \
+           in capsys.readouterr().err
+    assert main(["info", str(tmp_path / "r.dat"), "--height", "250", "--width", "400"]) == 0
+    assert "note:" not in capsys.readouterr().err  # the sizes were given
+    (tmp_path / "r.json").write_text(json.dumps({"height": 250, "width": 400}))
+    assert main(["info", str(tmp_path / "r.dat")]) == 0
+    assert "note:" not in capsys.readouterr().err
