@@ -1251,7 +1251,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "windows), and the limit (the noise-free mosaic through Ψ), plus the flow's end-point "
                         "error per step; at W/K/L from -W/-K/-L (default 10/3/3). Writes ladder.csv, ladder.md "
                         "and (with spikeref[plot]) ladder.png into --out; about 100 s on 2 cores with the "
-                        "peers extra")
+                        "peers extra. With --ladder, -W/-K/-L, --scenes, --frames, --seed, --weights, --out and "
+                        "--no-progress apply; --quick, --methods, --modes, --align and --flow-frames are refused")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_bench)
 
