@@ -212,50 +212,57 @@ def bayer_baseline(frames: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
 
 
 def streamed_baseline(stream: SpikeStream, method: str, every: int, finish: Callable = lambda f: f,
-                      chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
+                      chunk_frames: int = 32, frames: range | None = None) -> Iterator[tuple[int, np.ndarray]]:
     """Yield ``(index, frame)`` of TFI or TFSTP at planes ``0, every, 2·every, …``, chunk by chunk.
 
     Output frame ``k`` is the reconstruction at plane ``k · every``; ``finish`` is applied to each chunk (e.g.
     Ψ for colour).  Memory is bounded by the chunk, whatever the stream's length; results equal one pass.
+    ``frames`` (default all) yields only those; TFSTP still filters every plane from 0 (its state at a
+    frame depends on every plane before it).
     """
     if method not in ("tfi", "tfstp"):
         raise ValueError(f"streamed_baseline runs 'tfi' or 'tfstp'; got {method!r}")
     stream = as_stream(stream)
     all_times = np.arange(0, len(stream), every, dtype=np.int64)
+    wanted = range(all_times.size) if frames is None else range(max(frames.start, 0), min(frames.stop, all_times.size))
     state = TFSTPState(stream.height, stream.width) if method == "tfstp" else None
-    for first in range(0, all_times.size, chunk_frames):
-        times = all_times[first : first + chunk_frames]
-        frames = tfi(stream, times) if method == "tfi" else tfstp(stream, times, state=state)
-        frames = finish(frames)
+    for first in range(wanted.start, wanted.stop, chunk_frames):
+        times = all_times[first : min(first + chunk_frames, wanted.stop)]
+        # a fresh TFSTP state filters every plane from 0 up to its first time (the state is causal)
+        out = finish(tfi(stream, times) if method == "tfi" else tfstp(stream, times, state=state))
         for i in range(times.size):
-            yield first + i, frames[i]
+            yield first + i, out[i]
 
 
 def baseline_frames(stream, method: str, window: int = 10, every: int | None = None,
-                    chunk_frames: int = 32) -> Iterator[tuple[int, np.ndarray]]:
+                    chunk_frames: int = 32, frames: range | None = None) -> Iterator[tuple[int, np.ndarray]]:
     """Yield ``(index, frame)`` of a baseline over a stream, colour (Ψ) when the stream has a CFA.
 
     TFP: frame ``k`` is window ``[k·window, (k+1)·window)`` (centred at ``(k + ½)·window``); TFI and TFSTP: frame
     ``k`` is their reconstruction at plane ``k · every`` (default ``every = window``), via
     :func:`streamed_baseline` — so with the same index TFP is half a window later.  ``stream`` is a
     :class:`~spikeref.stream.SpikeStream` or a ``(T, H, W)`` array.  Chunks of ``chunk_frames`` frames bound the
-    memory whatever the stream's length.
+    memory whatever the stream's length.  ``frames`` (a ``range`` of frame indices, default all; cut to
+    the frames the stream has) yields only those, each equal to the same frame of a whole run.
     """
     if method not in BASELINES:
         raise ValueError(f"unknown baseline {method!r}; choose one of {', '.join(BASELINES)}")
     every = window if every is None else every  # 0 is a value (refused below), not "not given"
     if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
         raise ValueError(f"every must be a positive number of planes; got {every!r}")
+    if frames is not None and not isinstance(frames, range):
+        raise TypeError(f"frames must be a range of frame indices or None; got {type(frames).__name__}")
     stream = as_stream(stream)
     finish = (lambda f: bayer_baseline(f, stream.cfa)) if stream.cfa else (lambda f: f)
     if method == "tfp":
         n_total = len(stream) // window
         if n_total < 1:
             raise ValueError(f"window={window} is longer than the stream ({len(stream)} planes)")
-        for first in range(0, n_total, chunk_frames):
-            n = min(chunk_frames, n_total - first)
-            frames = finish(tfp(stream, window, start=first * window, count=n))
+        wanted = range(n_total) if frames is None else range(max(frames.start, 0), min(frames.stop, n_total))
+        for first in range(wanted.start, wanted.stop, chunk_frames):
+            n = min(chunk_frames, wanted.stop - first)
+            out = finish(tfp(stream, window, start=first * window, count=n))
             for i in range(n):
-                yield first + i, frames[i]
+                yield first + i, out[i]
         return
-    yield from streamed_baseline(stream, method, every, finish, chunk_frames)
+    yield from streamed_baseline(stream, method, every, finish, chunk_frames, frames)

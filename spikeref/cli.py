@@ -383,10 +383,13 @@ def cmd_baseline(args) -> int:
     stream = open_input(args)
     if args.method == "tfp" and args.window > len(stream):
         raise CliError(f"window={args.window} is longer than the stream ({len(stream)} planes)")
+    every = args.window if args.every is None else args.every
+    total = len(stream) // args.window if args.method == "tfp" else -(-len(stream) // every)
+    frames = None if args.frames is None else _frames_within(args.frames, range(total), "there are frames 0:{stop}")
     with _output_phase():
         render_baseline(
             stream, args.method, args.output, exr_dir=args.exr_dir, window=args.window, every=args.every,
-            fps=args.fps, half=args.half, progress=True,
+            fps=args.fps, half=args.half, progress=True, frames=frames,
         )
     _say_written(args.output, args.exr_dir)
     return 0
@@ -1075,6 +1078,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="TFP window in planes (10 planes = 0.5 ms at 20 kHz → 2000 FPS)")
     p.add_argument("--every", type=int, default=None,
                    help="TFI/TFSTP: output one frame every this many planes (default: the window)")
+    p.add_argument("--frames", default=None,
+                   help="frame numbers a:b (b excluded; TFP frame k is planes kW … (k+1)W − 1, TFI/TFSTP frame k "
+                        "is plane k·every), or N for the first N (default all); TFSTP still filters every "
+                        "plane before the first")
     p.add_argument("--fps", type=float, default=30.0, help="playback rate of the video file")
     p.add_argument("--half", action="store_true", help="write float16 EXR (default float32)")
     p.set_defaults(func=cmd_baseline)

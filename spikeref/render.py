@@ -214,11 +214,11 @@ class FrameSink:
 
 
 def render_baseline(stream, method: str, video, exr_dir=None, window: int = 10, every: int | None = None,
-                    fps: float = 30.0, half: bool = False, progress: bool = True) -> int:
+                    fps: float = 30.0, half: bool = False, progress: bool = True, frames: range | None = None) -> int:
     """Run a baseline over ``stream`` and write ``video`` (+ EXR frames). Returns the frame count.
 
-    The arguments, and the first frame, are checked before any output is opened: a refused
-    call leaves nothing on disk.
+    ``frames``: only those frame indices (:func:`spikeref.baselines.baseline_frames`).  The arguments, and
+    the first frame, are checked before any output is opened: a refused call leaves nothing on disk.
     """
     import itertools
 
@@ -227,11 +227,12 @@ def render_baseline(stream, method: str, video, exr_dir=None, window: int = 10, 
     if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
         raise ValueError(f"window must be a positive number of planes; got {window!r}")
     total = len(stream) // window if method == "tfp" else None
-    frames = baseline_frames(stream, method, window, every)
-    first = next(frames, None)  # the generator's own checks run here, before any output exists
+    total = len(frames) if frames is not None else total
+    made = baseline_frames(stream, method, window, every, frames=frames)
+    first = next(made, None)  # the generator's own checks run here, before any output exists
     with FrameSink(video, exr_dir, fps=fps, half=half) as sink, \
             tqdm(total=total, desc=method.upper(), unit="frame", disable=not progress or None) as bar:
-        for index, frame in itertools.chain([first] if first is not None else [], frames):
+        for index, frame in itertools.chain([first] if first is not None else [], made):
             sink.add(index, frame)
             bar.update(1)
     return sink.count

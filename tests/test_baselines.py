@@ -117,3 +117,18 @@ def test_baseline_frames_takes_an_array_and_refuses_a_bad_every():
     for every in (0, -1, 2.5):
         with pytest.raises(ValueError, match="every must be a positive"):
             list(baseline_frames(spikes, "tfi", window=10, every=every))
+
+
+@pytest.mark.parametrize("method", ["tfp", "tfi", "tfstp"])
+def test_baseline_frames_subset_equals_the_whole_run(method):
+    """``frames=range(a, b)``: exactly those frames, each equal to the whole run's (TFSTP's filter still runs
+    from plane 0), across chunk boundaries; a range past the end is cut."""
+    spikes = (np.random.default_rng(4).random((130, 4, 6)) < 0.3).astype(np.uint8)
+    whole = dict(baseline_frames(spikes, method, window=5, chunk_frames=4))
+    part = dict(baseline_frames(spikes, method, window=5, chunk_frames=4, frames=range(6, 11)))
+    assert sorted(part) == list(range(6, 11))
+    for k, frame in part.items():
+        np.testing.assert_array_equal(frame, whole[k])
+    assert sorted(dict(baseline_frames(spikes, method, window=5, frames=range(24, 99)))) == [24, 25]
+    with pytest.raises(TypeError, match="frames must be a range"):
+        list(baseline_frames(spikes, method, window=5, frames=[1, 2]))

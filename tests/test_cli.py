@@ -95,6 +95,15 @@ def test_baseline_tfp_writes_video_and_exr(tmp_path, capsys):
     assert len(names) == 264 // 20 and names[0] == "frame_000000.exr"
     frame = read_exr(tmp_path / "exr" / names[0])
     assert frame.shape == (224, 256, 3) and np.isfinite(frame).all() and 0 <= frame.min() <= frame.max() <= 1
+    # --frames: exactly those, each the same as in the whole run
+    assert main(["baseline", "tfp", "--exr-dir", str(tmp_path / "part"), "-W", "20", "--frames", "3:5"]) == 0
+    assert sorted(p.name for p in (tmp_path / "part").iterdir()) == ["frame_000003.exr", "frame_000004.exr"]
+    np.testing.assert_array_equal(read_exr(tmp_path / "part" / "frame_000004.exr"),
+                                  read_exr(tmp_path / "exr" / "frame_000004.exr"))
+    capsys.readouterr()
+    assert main(["baseline", "tfp", "--exr-dir", str(tmp_path / "none"), "-W", "20", "--frames", "12:20"]) == 2
+    assert "--frames 12:20: there are frames 0:13" in capsys.readouterr().err
+    assert not (tmp_path / "none").exists()
 
 
 @pytest.mark.parametrize(
