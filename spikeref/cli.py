@@ -1153,10 +1153,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "beyond the paper where the stage ladder measured a gain: docs/results.md)")
     p.add_argument("--preset", choices=["default", "fast", "fastest", "paper"], default=None,
                    help="named settings (options given with it win): default (the defaults below); fast (the "
-                        "defaults with --warp chained: only the step-0 flows estimated and composed, ≥ 8 frames/s "
-                        "at 250×400 on two cores and within 0.5 dB of the defaults on the benchmark scenes, "
-                        "docs/results.md); fastest (fast with --no-denoiser: about 5× the defaults' frames/s, within "
-                        "0.1 dB of them on the benchmark's and held-out means, 0.4 dB under in low light); "
+                        "defaults with --warp chained: only the step-0 flows estimated and composed; measured 15.6 "
+                        "against 12.1 frames/s at 250×400 on two cores, 0.05 dB under the defaults on the "
+                        "benchmark's mean, docs/results.md); fastest (fast with --no-denoiser: about 5× the "
+                        "defaults' frames/s, within 0.1 dB of them on the benchmark's and held-out means, 0.4 dB "
+                        "under in low light); "
                         "paper (= --paper)")
     p.add_argument("--no-denoiser", action="store_true",
                    help="D is the identity: no network pass, no weights (not in the paper; with window charges the "
