@@ -325,6 +325,8 @@ def cmd_info(args) -> int:
 
     from spikeref.accumulate import window_counts
     from spikeref.bayer import bayer_planes
+    from spikeref.pipeline import ReconstructParams, frame_range
+
     stream = open_input(args)  # a .dat is memory-mapped: nothing below reads spikes until the statistics
     t, h, w = stream.shape
     plane_bytes = -(-h * stream.file_width // 8)  # a .dat plane's bytes (whole there); an array's, rounded up
@@ -341,6 +343,12 @@ def cmd_info(args) -> int:
         print(f"axes        {args.axes} ({how})")
     print(f"rate        {stream.rate_hz:g} planes/s")
     print(f"duration    {stream.duration_s * 1000:.3f} ms")
+    defaults = ReconstructParams()
+    avail = frame_range(t, defaults.window, defaults.K, defaults.L)
+    print(f"frames      {avail.start}:{avail.stop} for reconstruct at W={defaults.window}, K={defaults.K}, "
+          f"L={defaults.L} (--frames; the first {avail.start} windows are the first frame's context)"
+          if len(avail) else f"frames      none for reconstruct at W={defaults.window}, K={defaults.K}, "
+          f"L={defaults.L}: it needs {defaults.window * ((defaults.K - 1) * defaults.L + 1)} planes")
     sys.stdout.flush()  # the layout shows at once, before any counting
     chunk = 2000
     blocks = [(s, min(chunk, t - s)) for s in range(0, t, chunk)] if args.stats else _info_sample(t, plane_bytes)

@@ -16,6 +16,7 @@ def test_info_on_the_embedded_sample(capsys):
     out = capsys.readouterr().out
     assert "planes      264" in out and "224 × 256" in out and "RGGB" in out
     assert "plane 3 at (1,1) B: " in out and "per Bayer plane" in out
+    assert "frames      3:23 for reconstruct at W=10, K=3, L=3" in out  # 264 planes: 26 windows, 3 on each side
 
 
 def test_info_on_a_mono_file_names_phases_not_colours(tmp_path, capsys):
@@ -26,6 +27,7 @@ def test_info_on_a_mono_file_names_phases_not_colours(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "per 2×2 phase (spikes/readout):" in out and "plane 0 at (0,0): 1.00000" in out
     assert "plane 3 at (1,1): 0.00000" in out
+    assert "frames      none for reconstruct at W=10, K=3, L=3: it needs 70 planes" in out
 
 
 def test_info_reads_a_sidecar_and_reports_rates(tmp_path, capsys):
