@@ -481,7 +481,7 @@ def plot_ladder(result: dict, path, setting: str | None = None) -> bool:
                         label=s + (" (partly below the axis)" if off else ""))
         ax.plot(x[cut:], y[cut:], marker="o", lw=1, alpha=0.6, color=line.get_color())
     if mean is not None:
-        ax.plot(x[:cut], mean[:cut], marker="s", lw=3, color="k", label=f"mean of {len(full)}")
+        ax.plot(x[:cut], mean[:cut], marker="s", lw=3, color="k", label=f"mean of {len(full)} (scenes with every rung)")
         ax.plot(x[cut:], mean[cut:], marker="s", lw=3, color="k")
         ax.set_ylim(bottom, float(finite.max()) + 1.0)
     if parts[1]:
