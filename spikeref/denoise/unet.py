@@ -223,11 +223,7 @@ class UNet:
         pool = buffers()
         pool.start((n, h, w))
 
-        def region(after):
-            """What the output needs of a layer with ``after`` layers to come, past the last upsampling.
-
-            Columns go up to whole vectors of 16: a scalar remainder would cost more than it saves.
-            """
+        def region(after):  # what the output needs of a layer with `after` layers to come (columns in 16s)
             return min(h, h0 + after), min(w, -(-(w0 + after) // 16) * 16)
 
         def conv(name, t, act=True, skip=None, after=None):
@@ -257,8 +253,7 @@ class UNet:
             up = pool.take(n, c, hh, ww)
             upsample_into(t, *(region(5) if last else (hh, ww)), up)
             pool.give(t)
-            # the layer reads [nearest ×2 of t, skip], the skip where it lies
-            t = conv(f"dec{k}a", up, skip=skip, after=4 if last else None)
+            t = conv(f"dec{k}a", up, skip=skip, after=4 if last else None)  # [nearest ×2 of t, skip]
             pool.give(skip)
             t = conv(f"dec{k}b", t, after=3 if last else None)
         t = conv("tail2", conv("tail1", conv("tail0", t, after=2), after=1), act=False, after=0)
