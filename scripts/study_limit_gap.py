@@ -26,11 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from spikeref.bayer import bayer_mosaic, bayer_planes, cfa_channel_map, demosaic_bilinear
+from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
 from spikeref.bench.ladder import _score, binomial_weights, true_flow_frame
 from spikeref.bench.runner import bench_scenes, load_bench_scene, score_centres
 from spikeref.charge import window_charge
 from spikeref.denoise.peers import PeerDenoiser
+from spikeref.simulate.camera import mosaic_radiance
 from spikeref.simulate.simulator import ground_truth
 
 HELDOUT = Path(__file__).resolve().parent / "heldout_scenes"
@@ -60,8 +61,7 @@ def main(argv=None) -> None:
             return demosaic_bilinear(bayer_mosaic(np.asarray(planes, np.float32), cfa), cfa)
 
         def mosaic_of(rgb, cfa=cfa):
-            chan = cfa_channel_map(rgb.shape[0], rgb.shape[1], cfa)
-            return np.take_along_axis(rgb, chan[..., None].astype(np.int64), axis=-1)[..., 0].astype(np.float32)
+            return mosaic_radiance(rgb, cfa).astype(np.float32)
 
         centres = score_centres(len(sc.stream), 4)
         offset = (centres[0] - w // 2) % w
@@ -72,7 +72,7 @@ def main(argv=None) -> None:
             start = offset + first * w
             truth = sc.reference(t)
             truths = ground_truth(sc.scene, w, planes=start + (2 * reach + 1) * w, start=start)
-            clean = np.stack([bayer_planes(mosaic_of(g), cfa) for g in truths]) * np.float32(w)
+            clean = bayer_planes(mosaic_of(truths), cfa) * np.float32(w)
             clean_tf = true_flow_frame(clean, sc.scene.content, w, start, reach, weights)
             charges = bayer_planes(window_charge(view, w, start=first * w, count=2 * reach + 1), cfa)
             tf = true_flow_frame(charges, sc.scene.content, w, start, reach, weights)

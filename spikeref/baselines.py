@@ -29,7 +29,7 @@ from spikeref.stream import SpikeStream, as_stream
 
 __all__ = [
     "baseline_frames", "tfp", "tfi", "tfstp", "STPParams", "TFSTPState", "TFI_BOUNDARY_INTERVAL", "TFI_MAX_INTERVAL",
-    "bayer_baseline", "streamed_baseline", "BASELINES",
+    "bayer_baseline", "streamed_baseline", "baseline_frame_count", "BASELINES",
 ]
 
 BASELINES = ("tfp", "tfi", "tfstp")
@@ -211,6 +211,19 @@ def bayer_baseline(frames: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     return demosaic_bilinear(frames, cfa)
 
 
+def baseline_frame_count(n_planes: int, method: str, window: int = 10, every: int | None = None,
+                         frames: range | None = None) -> int:
+    """Frames :func:`baseline_frames` makes of ``n_planes`` planes: TFP one per whole window, TFI and TFSTP
+    one every ``every`` planes (default the window) from plane 0; with ``frames``, those of them it yields."""
+    total = n_planes // window if method == "tfp" else -(-n_planes // (window if every is None else every))
+    return total if frames is None else len(_wanted(frames, total))
+
+
+def _wanted(frames: range | None, total: int) -> range:
+    """``frames`` (all when None) cut to the ``total`` frames there are."""
+    return range(total) if frames is None else range(max(frames.start, 0), min(frames.stop, total))
+
+
 def streamed_baseline(stream: SpikeStream, method: str, every: int, finish: Callable = lambda f: f,
                       chunk_frames: int = 32, frames: range | None = None) -> Iterator[tuple[int, np.ndarray]]:
     """Yield ``(index, frame)`` of TFI or TFSTP at planes ``0, every, 2·every, …``, chunk by chunk.
@@ -224,7 +237,7 @@ def streamed_baseline(stream: SpikeStream, method: str, every: int, finish: Call
         raise ValueError(f"streamed_baseline runs 'tfi' or 'tfstp'; got {method!r}")
     stream = as_stream(stream)
     all_times = np.arange(0, len(stream), every, dtype=np.int64)
-    wanted = range(all_times.size) if frames is None else range(max(frames.start, 0), min(frames.stop, all_times.size))
+    wanted = _wanted(frames, all_times.size)
     state = TFSTPState(stream.height, stream.width) if method == "tfstp" else None
     for first in range(wanted.start, wanted.stop, chunk_frames):
         times = all_times[first : min(first + chunk_frames, wanted.stop)]
@@ -255,10 +268,10 @@ def baseline_frames(stream, method: str, window: int = 10, every: int | None = N
     stream = as_stream(stream)
     finish = (lambda f: bayer_baseline(f, stream.cfa)) if stream.cfa else (lambda f: f)
     if method == "tfp":
-        n_total = len(stream) // window
+        n_total = baseline_frame_count(len(stream), method, window)
         if n_total < 1:
             raise ValueError(f"window={window} is longer than the stream ({len(stream)} planes)")
-        wanted = range(n_total) if frames is None else range(max(frames.start, 0), min(frames.stop, n_total))
+        wanted = _wanted(frames, n_total)
         for first in range(wanted.start, wanted.stop, chunk_frames):
             n = min(chunk_frames, wanted.stop - first)
             out = finish(tfp(stream, window, start=first * window, count=n))

@@ -348,7 +348,7 @@ def cmd_info(args) -> int:
     print(f"frames      {avail.start}:{avail.stop} for reconstruct at W={defaults.window}, K={defaults.K}, "
           f"L={defaults.L} (--frames; the first {avail.start} windows are the first frame's context)"
           if len(avail) else f"frames      none for reconstruct at W={defaults.window}, K={defaults.K}, "
-          f"L={defaults.L}: it needs {defaults.window * ((defaults.K - 1) * defaults.L + 1)} planes")
+          f"L={defaults.L}: it needs {defaults.support_windows * defaults.window} planes")
     sys.stdout.flush()  # the layout shows at once, before any counting
     chunk = 2000
     blocks = [(s, min(chunk, t - s)) for s in range(0, t, chunk)] if args.stats else _info_sample(t, plane_bytes)
@@ -379,6 +379,7 @@ def cmd_info(args) -> int:
 
 # -------------------------------------------------------------------------- baseline
 def cmd_baseline(args) -> int:
+    from spikeref.baselines import baseline_frame_count
     from spikeref.render import render_baseline
 
     if args.output is None and args.exr_dir is None:  # as reconstruct: a video and its EXR frames, named here
@@ -391,8 +392,7 @@ def cmd_baseline(args) -> int:
     stream = open_input(args)
     if args.method == "tfp" and args.window > len(stream):
         raise CliError(f"window={args.window} is longer than the stream ({len(stream)} planes)")
-    every = args.window if args.every is None else args.every
-    total = len(stream) // args.window if args.method == "tfp" else -(-len(stream) // every)
+    total = baseline_frame_count(len(stream), args.method, args.window, args.every)
     frames = None if args.frames is None else _frames_within(args.frames, range(total), "there are frames 0:{stop}")
     with _output_phase():
         render_baseline(

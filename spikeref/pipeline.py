@@ -291,9 +291,7 @@ class ReconstructParams:
         cores (61 against 12), within 0.1 dB of them on the means of the benchmark and held-out scenes,
         0.4 dB under them in low light (``docs/results.md``, "The denoiser's share of the time").
         """
-        base = dict(warp="chained", denoise=False)
-        base.update(kw)
-        return cls(**base)
+        return cls.fast(**{"denoise": False, **kw})
 
     @classmethod
     def preset(cls, name: str, **kw) -> "ReconstructParams":

@@ -17,7 +17,7 @@ from typing import Iterator
 
 import numpy as np
 
-from spikeref.baselines import baseline_frames
+from spikeref.baselines import baseline_frame_count, baseline_frames
 from spikeref.io.atomic import atomic_write
 from spikeref.io.exr import read_exr, write_exr
 from spikeref.io.video import VideoWriter
@@ -226,10 +226,9 @@ def render_baseline(stream, method: str, video, exr_dir=None, window: int = 10, 
 
     if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
         raise ValueError(f"window must be a positive number of planes; got {window!r}")
-    total = len(stream) // window if method == "tfp" else None
-    total = len(frames) if frames is not None else total
     made = baseline_frames(stream, method, window, every, frames=frames)
     first = next(made, None)  # the generator's own checks run here, before any output exists
+    total = baseline_frame_count(len(stream), method, window, every, frames)
     with FrameSink(video, exr_dir, fps=fps, half=half) as sink, \
             tqdm(total=total, desc=method.upper(), unit="frame", disable=not progress or None) as bar:
         for index, frame in itertools.chain([first] if first is not None else [], made):

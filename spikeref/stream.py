@@ -303,20 +303,18 @@ ARRAY_AXES = ("THW", "HWT")
 
 
 def _read_array_file(path: Path, read):
-    """``read()``, with a damaged or foreign ``.npy``/``.npz`` file (truncated, not NumPy's, holding
-    Python objects) reported as one ``ValueError`` that names it."""
+    """``read()`` of NumPy's reader, with a damaged or foreign ``.npy``/``.npz`` file (truncated, not NumPy's,
+    holding Python objects) reported as one ``ValueError`` that names it."""
     try:
         return read()
     except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
-        if isinstance(exc, ValueError) and str(exc).startswith(str(path)):
-            raise
         why = "not NumPy array data" if "pickle" in str(exc) else str(exc)
         raise ValueError(f"{path}: not a readable {path.suffix.lower()} spike file ({why})") from None
 
 
 def _npz_spikes(path: Path, key: str | None) -> np.ndarray:
     """The spikes' array of an ``.npz`` file: ``key``, else the first of :data:`NPZ_SPIKE_KEYS`, else its only one."""
-    data = np.load(path)
+    data = _read_array_file(path, lambda: np.load(path))
     if not isinstance(data, np.lib.npyio.NpzFile):
         raise ValueError(f"{path}: holds one array, as a .npy file does: name it .npy")
     with data:
@@ -328,7 +326,7 @@ def _npz_spikes(path: Path, key: str | None) -> np.ndarray:
                                  f"array; found keys {keys}: name the spikes' key")
         elif key not in keys:
             raise ValueError(f"{path}: no key {key!r}; found keys {keys}")
-        return data[key]
+        return _read_array_file(path, lambda: data[key])  # a member is read (and may be cut short) here
 
 
 def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, *,
@@ -361,7 +359,7 @@ def load_spikes(path, height: int | None = None, width: int | None = None, cfa: 
             raise ValueError(f"{path}: a .npy file holds one array; key is for .npz files")
         arr = _read_array_file(path, lambda: np.load(path, mmap_mode="r"))
     elif suffix == ".npz":
-        arr = _read_array_file(path, lambda: _npz_spikes(path, key))
+        arr = _npz_spikes(path, key)
     else:
         raise ValueError(f"{path}: unknown spike file type {suffix!r} (expected .dat, .npy or .npz)")
     if axes == "HWT":

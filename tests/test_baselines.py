@@ -132,3 +132,13 @@ def test_baseline_frames_subset_equals_the_whole_run(method):
     assert sorted(dict(baseline_frames(spikes, method, window=5, frames=range(24, 99)))) == [24, 25]
     with pytest.raises(TypeError, match="frames must be a range"):
         list(baseline_frames(spikes, method, window=5, frames=[1, 2]))
+
+
+def test_baseline_frame_count_is_what_baseline_frames_yields():
+    from spikeref.baselines import baseline_frame_count
+
+    spikes = (np.random.default_rng(5).random((47, 2, 4)) < 0.3).astype(np.uint8)
+    for method, every in (("tfp", None), ("tfi", None), ("tfi", 4), ("tfstp", 7)):
+        for frames in (None, range(2, 4), range(3, 99)):
+            made = list(baseline_frames(spikes, method, window=10, every=every, frames=frames))
+            assert baseline_frame_count(47, method, 10, every, frames) == len(made), (method, every, frames)

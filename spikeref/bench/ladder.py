@@ -179,8 +179,9 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
     """
     from spikeref.accumulate import window_counts
     from spikeref.charge import window_charge
-    from spikeref.bayer import bayer_mosaic, bayer_planes, cfa_channel_map, demosaic_bilinear
+    from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
     from spikeref.pipeline import ReconstructParams, Reconstructor, exposure_planes
+    from spikeref.simulate.camera import mosaic_radiance
     from spikeref.simulate.motion import plane_flow
     from spikeref.simulate.simulator import ground_truth
 
@@ -195,9 +196,8 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
     def psi(planes):
         return demosaic_bilinear(bayer_mosaic(np.asarray(planes, dtype=np.float32), cfa), cfa)
 
-    def mosaic_of(rgb):  # the noise-free Bayer mosaic of a ground-truth frame
-        chan = cfa_channel_map(rgb.shape[0], rgb.shape[1], cfa)
-        return np.take_along_axis(rgb, chan[..., None].astype(np.int64), axis=-1)[..., 0].astype(np.float32)
+    def mosaic_of(rgb):  # the noise-free Bayer mosaic of ground-truth frames (Eq. 3)
+        return mosaic_radiance(rgb, cfa).astype(np.float32)
 
     out = {r: [] for r in rungs}
     secs = {r: [] for r in rungs}
@@ -245,9 +245,9 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                     # each window's exact ground truth (its own W planes) as Bayer planes, in counts as the windows
                     start = offset + first * w
                     truths = ground_truth(sc.scene, w, planes=start + (2 * reach + 1) * w, start=start)
-                    clean = np.stack([bayer_planes(mosaic_of(g), cfa) for g in truths]) * np.float32(w)
-                    out["true_flow_clean"].append(psi(true_flow_frame(clean, sc.scene.content, w, offset + first * w,
-                                                                      reach, weights)))
+                    clean = bayer_planes(mosaic_of(truths), cfa) * np.float32(w)
+                    out["true_flow_clean"].append(psi(true_flow_frame(clean, sc.scene.content, w, start, reach,
+                                                                      weights)))
                 if "true_flow" in rungs:
                     out["true_flow"].append(psi(tf))
                 if "true_flow_d" in rungs:
