@@ -50,10 +50,10 @@ from spikeref._align_kernels import (
     PD_TOLERANCE, SLACK, dense_flow, gradient, lucas_kanade, regularise, search_tiles, subpixel_fit, upsample_tiles,
 )
 from spikeref.bayer import luma
-from spikeref.align_params import DEFAULT_PARAMS, LK_ITERATIONS, REFINES, SMOOTHNESS_SWEEPS, AlignParams, check_step
+from spikeref.align_params import DEFAULT_PARAMS, LK_ITERATIONS, REFINES, SMOOTHNESS_SWEEPS, AlignParams, check_pair
 from spikeref.align_noise import (
-    ZERO_TEST_BOX, apply_zero_motion, as_image, checked_correlation, is_integer, level_noise_factors, noise_map,
-    search_thresholds, tile_sums,
+    ZERO_TEST_BOX, apply_zero_motion, is_integer, level_noise_factors, noise_inputs, search_thresholds, tile_sums,
+    zero_motion_inputs,
 )
 from spikeref.pyramid import PYRAMID_KERNEL, gaussian_pyramid, pyramid_levels
 
@@ -108,40 +108,13 @@ def align_tiles(reference, alternate, step: int = 0, params: AlignParams = DEFAU
         Non-2-D, non-finite or mismatched input, a bad ``step``, or a frame smaller than
         ``params.min_size(step)`` (the message gives the minimum).
     """
-    ref, alt, step = _checked(reference, alternate, step, params)
-    return _tiles(ref, alt, step, params, *_noise_inputs(ref, alt, params, noise, correlation))
-
-
-def _checked(reference, alternate, step, params) -> tuple[np.ndarray, np.ndarray, int]:
-    """The checks of :func:`align_tiles` and :func:`align`: the images as float32, and the step."""
-    if not isinstance(params, AlignParams):
-        raise TypeError(f"params must be an AlignParams; got {type(params).__name__}")
-    step = check_step(step)
-    ref = as_image(reference, "reference")
-    alt = as_image(alternate, "alternate")
-    if ref.shape != alt.shape:
-        raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
-    h, w = ref.shape
-    need = params.min_size(step)
-    if min(h, w) < need:
-        raise ValueError(f"reference is {h}×{w} on the plane grid; alignment with levels={params.levels}, "
-                         f"coarse_tile={params.coarse_tile} (finest tile {params.tile_for_step(step)} at step {step})"
-                         f" needs at least {need}×{need}")
-    return ref, alt, step
-
-
-def _noise_inputs(ref, alt, params, noise, correlation) -> tuple[np.ndarray | None, float | None]:
-    """The level-0 noise variance map and the clipped noise correlation, each None where nothing uses it."""
-    noise0 = rho = None
-    if params.prefer_centre > 0 or (params.subpixel and params.smoothness > 0) or noise is not None:
-        noise0 = noise_map(noise, ref.shape, ref, alt)  # a given map is checked even when unused
-    if params.prefer_centre > 0 or correlation is not None:
-        rho = checked_correlation(correlation, ref, alt)  # 〃
-    return noise0, rho
+    ref, alt, step = check_pair(reference, alternate, step, params)
+    return _tiles(ref, alt, step, params, *noise_inputs(ref, alt, params, noise, correlation))
 
 
 def _tiles(ref, alt, step, params, noise0, rho) -> tuple[np.ndarray, int]:
-    """:func:`align_tiles` on checked images, with the noise map and correlation :func:`_noise_inputs` made."""
+    """:func:`align_tiles` on checked images, with the noise map and correlation of
+    :func:`spikeref.align_noise.noise_inputs`."""
     tile = params.tile_for_step(step)
     ref_pyr, alt_pyr = pyramid_levels(ref, params.levels), pyramid_levels(alt, params.levels)
     noise_pyr = factors = None
@@ -253,27 +226,15 @@ def align(reference, alternate, step: int = 0, params: AlignParams = DEFAULT_PAR
         ``(dy, dx)`` in plane pixels with ``alternate[y + dy, x + dx] ≈ reference[y, x]`` —
         ``F(x, t, t')`` of Eq. 14–15 for reference window ``t`` and alternate window ``t'``.
     """
-    ref, alt, step = _checked(reference, alternate, step, params)
-    noise0, rho = _noise_inputs(ref, alt, params, noise, correlation)
+    ref, alt, step = check_pair(reference, alternate, step, params)
+    noise0, rho = noise_inputs(ref, alt, params, noise, correlation)
     vectors, tile = _tiles(ref, alt, step, params, noise0, rho)
     h, w = ref.shape
     out = np.empty((2, h, w), np.float32)
     dense_flow(vectors, tile, out)
     if params.zero_test is None:
         return out
-    if raw is None:
-        r_img, a_img = ref, alt
-    else:
-        r_img, a_img = as_image(raw[0], "raw[0]"), as_image(raw[1], "raw[1]")
-        if r_img.shape != (h, w) or a_img.shape != (h, w):
-            raise ValueError(f"raw must be two images of the reference's shape {(h, w)}; got {r_img.shape} and "
-                             f"{a_img.shape}")
-    # zero_motion_test's noise and correlation: the ones already made where they describe the same images
-    # (given, or estimated from ref and alt when raw is not given), else estimated from the raw frames
-    same = raw is None
-    v = noise0 if noise0 is not None and (same or noise is not None) else noise_map(noise, (h, w), r_img, a_img)
-    r = rho if rho is not None and (same or correlation is not None) else checked_correlation(correlation, r_img,
-                                                                                              a_img)
+    r_img, a_img, v, r = zero_motion_inputs(raw, ref, alt, noise, correlation, noise0, rho)
     return apply_zero_motion(out, r_img, a_img, float(params.zero_test), v, r, ZERO_TEST_BOX)
 
 

@@ -28,8 +28,9 @@ from spikeref.noise_level import immerkaer_response
 __all__ = [
     "L1_DIFF_VARIANCE", "L2_DIFF_VARIANCE", "MIN_CORRELATION", "LOCAL_NOISE_BOX", "ZERO_TEST_BOX",
     "as_image", "is_integer", "estimate_noise", "estimate_noise_correlation", "local_noise", "level_noise_factors",
-    "noise_map",
+    "noise_map", "noise_inputs",
     "checked_correlation", "tile_sums", "search_thresholds", "zero_motion_test", "apply_zero_motion",
+    "zero_motion_inputs",
 ]
 
 #: Side (pixels) of the box over which the per-pixel zero-motion test (``AlignParams.zero_test``) sums.
@@ -201,6 +202,21 @@ def noise_map(noise, shape, ref, alt) -> np.ndarray:
     return np.broadcast_to(arr, shape).copy()
 
 
+def noise_inputs(ref, alt, params, noise, correlation) -> tuple[np.ndarray | None, float | None]:
+    """What :func:`spikeref.align.align` needs of the noise, made once: the level-0 variance map and the correlation.
+
+    Each is None where ``params`` (an :class:`~spikeref.align_params.AlignParams`) uses neither and none was given:
+    the map is used by the noise-aware search and the regularised Lucas–Kanade field, the correlation by the search.
+    A given ``noise`` or ``correlation`` is checked (:func:`noise_map`, :func:`checked_correlation`) even when unused.
+    """
+    noise0 = rho = None
+    if params.prefer_centre > 0 or (params.subpixel and params.smoothness > 0) or noise is not None:
+        noise0 = noise_map(noise, ref.shape, ref, alt)
+    if params.prefer_centre > 0 or correlation is not None:
+        rho = checked_correlation(correlation, ref, alt)
+    return noise0, rho
+
+
 def checked_correlation(correlation, ref, alt) -> float:
     """The noise correlation of the pair, given or estimated, clipped to ``[MIN_CORRELATION, 1]``."""
     if correlation is None:
@@ -295,6 +311,28 @@ def zero_motion_test(flow, reference, alternate, z: float, noise=None, correlati
     v = noise_map(noise, ref.shape, ref, alt)
     rho = checked_correlation(correlation, ref, alt)
     return apply_zero_motion(np.ascontiguousarray(f, np.float32), ref, alt, float(z), v, rho, int(box))
+
+
+def zero_motion_inputs(raw, ref, alt, noise, correlation, noise0, rho):
+    """The frames, variance map and correlation the zero-motion test of :func:`spikeref.align.align` uses.
+
+    ``raw`` is ``align``'s argument (None, or the two frames to compare instead of ``ref`` and ``alt``, checked
+    here); ``noise``/``correlation`` as given to ``align``, ``noise0``/``rho`` what :func:`noise_inputs` made of
+    them (None where not made).  Those are reused where they describe the compared frames (given, or estimated
+    from ``ref`` and ``alt`` when ``raw`` is None); else they are estimated from the raw frames.
+    """
+    if raw is None:
+        r_img, a_img = ref, alt
+    else:
+        r_img, a_img = as_image(raw[0], "raw[0]"), as_image(raw[1], "raw[1]")
+        if r_img.shape != ref.shape or a_img.shape != ref.shape:
+            raise ValueError(f"raw must be two images of the reference's shape {ref.shape}; got {r_img.shape} and "
+                             f"{a_img.shape}")
+    same = raw is None
+    v = noise0 if noise0 is not None and (same or noise is not None) else noise_map(noise, ref.shape, r_img, a_img)
+    r = rho if rho is not None and (same or correlation is not None) else checked_correlation(correlation, r_img,
+                                                                                              a_img)
+    return r_img, a_img, v, r
 
 
 def apply_zero_motion(flow: np.ndarray, ref: np.ndarray, alt: np.ndarray, z: float, noise: np.ndarray, rho: float,

@@ -80,9 +80,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from spikeref.align_noise import is_integer
+from spikeref.align_noise import as_image, is_integer
 
-__all__ = ["REFINES", "LK_ITERATIONS", "SMOOTHNESS_SWEEPS", "AlignParams", "DEFAULT_PARAMS", "check_step"]
+__all__ = ["REFINES", "LK_ITERATIONS", "SMOOTHNESS_SWEEPS", "AlignParams", "DEFAULT_PARAMS", "check_step",
+           "check_pair"]
 
 #: The sub-pixel refinements of :attr:`AlignParams.refine`.
 REFINES = ("quadratic", "lk")
@@ -275,3 +276,25 @@ def check_step(step) -> int:
     if not is_integer(step) or step < 0:
         raise ValueError(f"step must be an integer ≥ 0 (the pipeline step l); got {step!r}")
     return int(step)
+
+
+def check_pair(reference, alternate, step, params) -> tuple[np.ndarray, np.ndarray, int]:
+    """The checks of :func:`spikeref.align.align` and :func:`~spikeref.align.align_tiles`, once per call.
+
+    Returns the two images as C-contiguous float32 (:func:`spikeref.align_noise.as_image`) and ``step`` as an int;
+    raises the ``TypeError`` or ``ValueError`` those functions document, naming the argument.
+    """
+    if not isinstance(params, AlignParams):
+        raise TypeError(f"params must be an AlignParams; got {type(params).__name__}")
+    step = check_step(step)
+    ref = as_image(reference, "reference")
+    alt = as_image(alternate, "alternate")
+    if ref.shape != alt.shape:
+        raise ValueError(f"reference and alternate must have the same shape; got {ref.shape} and {alt.shape}")
+    h, w = ref.shape
+    need = params.min_size(step)
+    if min(h, w) < need:
+        raise ValueError(f"reference is {h}×{w} on the plane grid; alignment with levels={params.levels}, "
+                         f"coarse_tile={params.coarse_tile} (finest tile {params.tile_for_step(step)} at step {step})"
+                         f" needs at least {need}×{need}")
+    return ref, alt, step
