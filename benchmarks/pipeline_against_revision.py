@@ -1,12 +1,15 @@
 """Frames/s of the default reconstruction here against an earlier revision's, alternated in one run.
 
-``python benchmarks/pipeline_against_revision.py REV [--frames 24] [--rounds 3] [--size 250x400]``
+``python benchmarks/pipeline_against_revision.py REV [--frames 24] [--rounds 3] [--size 250x400] [--preset paper]``
 
 Checks out ``REV`` into a temporary git worktree, writes one colour test stream (Bernoulli spikes of a
 smooth texture moving 1 px per window, RGGB) as a ``.dat`` both revisions can read, and then runs, in
 turn and ``--rounds`` times, a fresh process of each revision that opens the file with
 ``spikeref.read_dat`` and reconstructs ``--frames`` frames with that revision's own defaults
-(``spikeref.reconstruct``'s ``ReconstructParams()`` and its bundled network) at W/K/L = 10/3/3.  The
+(``spikeref.reconstruct``'s ``ReconstructParams()`` and its bundled network) at W/K/L = 10/3/3; with
+``--preset paper``, the paper's procedure as ``benchmarks/test_speed_pipeline.py`` times it
+(``ReconstructParams.paper()`` and the bundled network with ``guard="off"``), and ``--preset fast`` the fast
+preset.  The
 first frame of each process is left out of the timing (it compiles or loads the kernels).  Prints
 frames/s per round and the ratio of the medians.  Needs git and the revision in this clone.
 """
@@ -30,7 +33,14 @@ import numpy as np
 import spikeref as sr
 from spikeref.pipeline import ReconstructParams, Reconstructor
 stream = sr.read_dat(sys.argv[1], height=int(sys.argv[2]), width=int(sys.argv[3]), cfa="RGGB")
-rec = Reconstructor(stream, ReconstructParams(window=10, K=3, L=3))
+preset = sys.argv[5]
+if preset == "default":
+    rec = Reconstructor(stream, ReconstructParams(window=10, K=3, L=3))
+else:
+    from spikeref.denoise.denoiser import Denoiser, bundled_weights
+    params = getattr(ReconstructParams, preset)(window=10, K=3, L=3)
+    guard = "off" if preset == "paper" else "sure"
+    rec = Reconstructor(stream, params, Denoiser.load(bundled_weights(params.accumulate), guard=guard))
 a = rec.frames_available.start
 n = int(sys.argv[4])
 it = iter(rec.frames(a, a + n + 1))
@@ -42,9 +52,9 @@ print(json.dumps({"fps": n / (time.perf_counter() - t0), "module": sr.__file__})
 """
 
 
-def _run(src: Path, dat: Path, h: int, w: int, frames: int) -> dict:
+def _run(src: Path, dat: Path, h: int, w: int, frames: int, preset: str) -> dict:
     env = dict(os.environ, PYTHONPATH=str(src))
-    done = subprocess.run([sys.executable, "-c", CHILD, str(dat), str(h), str(w), str(frames)], env=env,
+    done = subprocess.run([sys.executable, "-c", CHILD, str(dat), str(h), str(w), str(frames), preset], env=env,
                           cwd=tempfile.gettempdir(), capture_output=True, text=True, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -55,6 +65,8 @@ def main(argv=None) -> None:
     ap.add_argument("--frames", type=int, default=24, help="frames timed per process (default 24)")
     ap.add_argument("--rounds", type=int, default=3, help="processes of each revision, alternated (default 3)")
     ap.add_argument("--size", default="250x400", help="HxW pixels (default 250x400)")
+    ap.add_argument("--preset", choices=("default", "paper", "fast"), default="default",
+                    help="the defaults (default), the paper's procedure, or the fast preset")
     args = ap.parse_args(argv)
     h, w = (int(v) for v in args.size.lower().split("x"))
     from spikeref.io.dat import write_dat
@@ -72,14 +84,15 @@ def main(argv=None) -> None:
             fps = {"before": [], "now": []}
             for r in range(args.rounds):
                 for name, src in (("before", old), ("now", REPO)):
-                    out = _run(src, dat, h, w, args.frames)
+                    out = _run(src, dat, h, w, args.frames, args.preset)
                     assert Path(out["module"]).resolve().is_relative_to(src.resolve()), out["module"]
                     fps[name].append(out["fps"])
                     print(f"round {r + 1}: {name:6s} {out['fps']:6.2f} frames/s", flush=True)
         finally:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(old)], check=False)
     before, now = statistics.median(fps["before"]), statistics.median(fps["now"])
-    print(f"median frames/s at {h}x{w}, 10/3/3: {args.rev} {before:.2f}, now {now:.2f} ({now / before:.2f}x)")
+    print(f"median frames/s at {h}x{w}, 10/3/3, {args.preset}: {args.rev} {before:.2f}, now {now:.2f} "
+          f"({now / before:.2f}x)")
 
 
 if __name__ == "__main__":

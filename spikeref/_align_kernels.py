@@ -13,9 +13,10 @@ import numpy as np
 from spikeref._jit import njit, prange
 
 __all__ = [
-    "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "blur_decimate_kernel",
+    "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "block_distances", "blur_decimate_kernel",
     "dense_flow", "fit_offset", "gradient", "integral_image", "interp_index", "jacobi_sweeps", "lucas_kanade",
-    "nearest_tiles", "search_tiles", "subpixel_fit", "tile_distance", "upsample_tiles", "zero_test_terms",
+    "nearest_tiles", "search_tiles", "subpixel_fit", "tile_distance", "upsample_tiles", "window_distances",
+    "zero_test_terms",
 ]
 
 #: The 5-tap binomial blur of the pyramid (σ = 1), applied separably.
@@ -60,6 +61,83 @@ def tile_distance(ref, alt, oy, ox, tile, dy, dx, l2):
     return total
 
 
+@njit(inline="always")
+def square(v):
+    return v * v
+
+
+@njit(inline="always")
+def block_distances(ref, alt, oy, ox, tile, qy, qx, l2, d, i0, j0):
+    """``d[i0 + a, j0 + b]`` = :func:`tile_distance` at the offset ``(qy + a − 1, qx + b − 1)``, ``a, b ∈ {0, 1, 2}``.
+
+    The nine sums run side by side, each adding the same terms in the same order as :func:`tile_distance`
+    (so the same float64 values): nine independent chains where one offset at a time is a single chain.
+    Blocks with a shifted tile partly outside the image take :func:`tile_distance`'s clamped path.
+    """
+    h, w = alt.shape
+    if oy + qy - 1 < 0 or oy + qy + 1 + tile > h or ox + qx - 1 < 0 or ox + qx + 1 + tile > w:
+        for a in range(3):
+            for b in range(3):
+                d[i0 + a, j0 + b] = tile_distance(ref, alt, oy, ox, tile, qy + a - 1, qx + b - 1, l2)
+        return
+    s00 = s01 = s02 = s10 = s11 = s12 = s20 = s21 = s22 = 0.0
+    for y in range(oy, oy + tile):
+        r = ref[y, ox:ox + tile]
+        a0 = alt[y + qy - 1, ox + qx - 1:ox + qx + tile + 1]
+        a1 = alt[y + qy, ox + qx - 1:ox + qx + tile + 1]
+        a2 = alt[y + qy + 1, ox + qx - 1:ox + qx + tile + 1]
+        if l2:
+            for x in range(tile):
+                rv = np.float64(r[x])
+                s00 += square(rv - np.float64(a0[x]))
+                s01 += square(rv - np.float64(a0[x + 1]))
+                s02 += square(rv - np.float64(a0[x + 2]))
+                s10 += square(rv - np.float64(a1[x]))
+                s11 += square(rv - np.float64(a1[x + 1]))
+                s12 += square(rv - np.float64(a1[x + 2]))
+                s20 += square(rv - np.float64(a2[x]))
+                s21 += square(rv - np.float64(a2[x + 1]))
+                s22 += square(rv - np.float64(a2[x + 2]))
+        else:
+            for x in range(tile):
+                rv = np.float64(r[x])
+                s00 += abs(rv - np.float64(a0[x]))
+                s01 += abs(rv - np.float64(a0[x + 1]))
+                s02 += abs(rv - np.float64(a0[x + 2]))
+                s10 += abs(rv - np.float64(a1[x]))
+                s11 += abs(rv - np.float64(a1[x + 1]))
+                s12 += abs(rv - np.float64(a1[x + 2]))
+                s20 += abs(rv - np.float64(a2[x]))
+                s21 += abs(rv - np.float64(a2[x + 1]))
+                s22 += abs(rv - np.float64(a2[x + 2]))
+    d[i0, j0] = s00
+    d[i0, j0 + 1] = s01
+    d[i0, j0 + 2] = s02
+    d[i0 + 1, j0] = s10
+    d[i0 + 1, j0 + 1] = s11
+    d[i0 + 1, j0 + 2] = s12
+    d[i0 + 2, j0] = s20
+    d[i0 + 2, j0 + 1] = s21
+    d[i0 + 2, j0 + 2] = s22
+
+
+@njit(inline="always")
+def window_distances(ref, alt, oy, ox, tile, cy, cx, radius, l2, d):
+    """``d[dy + radius, dx + radius]`` = :func:`tile_distance` at ``(cy + dy, cx + dx)`` for ``|dy|, |dx| ≤ radius``.
+
+    In 3×3 blocks (:func:`block_distances`), one offset at a time where ``2·radius + 1`` leaves a remainder.
+    """
+    n = 2 * radius + 1
+    for i in range(0, n, 3):
+        for j in range(0, n, 3):
+            if i + 3 <= n and j + 3 <= n:
+                block_distances(ref, alt, oy, ox, tile, cy + i - radius + 1, cx + j - radius + 1, l2, d, i, j)
+            else:
+                for a in range(i, min(i + 3, n)):
+                    for b in range(j, min(j + 3, n)):
+                        d[a, b] = tile_distance(ref, alt, oy, ox, tile, cy + a - radius, cx + b - radius, l2)
+
+
 @njit(parallel=True)
 def search_tiles(ref, alt, tile, centre, radius, l2, bias, thresh, out):
     """Integer search: ``out[i, j] = centre[i, j] + argmin_d distance``; ``centre, out (ny, nx, 2) int64``.
@@ -79,6 +157,8 @@ def search_tiles(ref, alt, tile, centre, radius, l2, bias, thresh, out):
         ox = j * stride
         cy = centre[i, j, 0]
         cx = centre[i, j, 1]
+        d = np.empty((2 * radius + 1, 2 * radius + 1))
+        window_distances(ref, alt, oy, ox, tile, cy, cx, radius, l2, d)
         best = np.inf
         by = 0
         bx = 0
@@ -86,7 +166,7 @@ def search_tiles(ref, alt, tile, centre, radius, l2, bias, thresh, out):
         at_centre = np.inf
         for dy in range(-radius, radius + 1):
             for dx in range(-radius, radius + 1):
-                dist = tile_distance(ref, alt, oy, ox, tile, cy + dy, cx + dx, l2)
+                dist = d[dy + radius, dx + radius]
                 if cy + dy == 0 and cx + dx == 0:
                     dist -= bias[i, j]
                 n2 = dy * dy + dx * dx
@@ -210,9 +290,7 @@ def subpixel_fit(ref, alt, tile, best, out):
         out[i, j, 0] = by
         out[i, j, 1] = bx
         d = np.empty((3, 3))
-        for a in range(3):
-            for b in range(3):
-                d[a, b] = tile_distance(ref, alt, oy, ox, tile, by + a - 1, bx + b - 1, True)
+        block_distances(ref, alt, oy, ox, tile, by, bx, True, d, 0, 0)
         if d[1, 1] == 0.0:
             continue
         u_y, u_x, ok = fit_offset(d)
@@ -422,7 +500,7 @@ def integral_image(values, c):
             c[i + 1, j + 1] = acc
 
 
-@njit
+@njit(parallel=True)
 def zero_test_terms(ref, alt, flow, noise, rho, d_out, var_out):
     """Per pixel: ``(r − a)² − (r − a_u)²`` less its noise-only mean, and that term's noise variance.
 
@@ -433,7 +511,7 @@ def zero_test_terms(ref, alt, flow, noise, rho, d_out, var_out):
     ``var(x² − y²) = 2σ_x⁴ + 2σ_y⁴ − 4 cov²``.
     """
     h, w = ref.shape
-    for y in range(h):
+    for y in prange(h):
         for x in range(w):
             uy = np.float64(flow[0, y, x])
             ux = np.float64(flow[1, y, x])

@@ -117,6 +117,8 @@ def _tiles(ref, alt, step, params, noise0, rho) -> tuple[np.ndarray, int]:
     :func:`spikeref.align_noise.noise_inputs`."""
     tile = params.tile_for_step(step)
     ref_pyr, alt_pyr = pyramid_levels(ref, params.levels), pyramid_levels(alt, params.levels)
+    # the distances are float64 sums of float64 differences: the kernels read float64 copies (the same values)
+    ref64, alt64 = [lvl.astype(np.float64) for lvl in ref_pyr], [lvl.astype(np.float64) for lvl in alt_pyr]
     noise_pyr = factors = None
     if params.prefer_centre > 0:  # the local mean variance under each level's pixels
         noise_pyr = [level.astype(np.float64, copy=False) for level in pyramid_levels(noise0, params.levels)]
@@ -126,7 +128,7 @@ def _tiles(ref, alt, step, params, noise0, rho) -> tuple[np.ndarray, int]:
     vectors = None  # integer vectors of the previous (coarser) level
     for k in range(params.levels - 1, -1, -1):
         size = tile if k == 0 else params.coarse_tile
-        r_img, a_img = ref_pyr[k], alt_pyr[k]
+        r_img, a_img = ref64[k], alt64[k]
         grid = (_tile_count(r_img.shape[0], size), _tile_count(r_img.shape[1], size))
         l2 = k > 0  # L2 distances at the coarse levels, L1 at the finest
         if noise_pyr is None:
@@ -156,7 +158,7 @@ def _tiles(ref, alt, step, params, noise0, rho) -> tuple[np.ndarray, int]:
             refined = regularise(refined, info, variance, params.smoothness, SMOOTHNESS_SWEEPS)
         out[...] = refined
     elif params.subpixel:
-        subpixel_fit(ref_pyr[0], alt_pyr[0], tile, vectors, out)
+        subpixel_fit(ref64[0], alt64[0], tile, vectors, out)
     else:
         out[...] = vectors
     return out, tile

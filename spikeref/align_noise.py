@@ -342,6 +342,8 @@ def apply_zero_motion(flow: np.ndarray, ref: np.ndarray, alt: np.ndarray, z: flo
     var = np.empty(ref.shape, np.float64)
     zero_test_terms(ref, alt, flow, noise, rho, d, var)
     total = uniform_filter(d, box, mode="nearest")
-    spread = uniform_filter(var, box, mode="nearest")
+    # var ≥ 0, but the filter's running sums leave round-off of either sign where it follows large values:
+    # clipped, so that a noise-free region compares S with 0 (the oracle's exact sum) instead of with NaN
+    spread = np.maximum(uniform_filter(var, box, mode="nearest"), 0.0)
     flow[:, total < -z * np.sqrt(spread / (box * box))] = 0.0
     return flow

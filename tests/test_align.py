@@ -1,5 +1,6 @@
 """HDR+ tile alignment (§4.2, supplement "Progressive warping"): kernels vs oracle, known motions, edge cases."""
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -8,7 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage
 
-from spikeref._align_kernels import fit_offset, gradient, lucas_kanade, nearest_tiles
+from spikeref._align_kernels import (
+    block_distances, fit_offset, gradient, lucas_kanade, nearest_tiles, tile_distance, window_distances,
+)
 from spikeref._align_kernels import regularise
 from spikeref.align import AlignParams, align, align_tiles, flow_from_tiles, gaussian_pyramid, luma
 from spikeref.align_params import SMOOTHNESS_SWEEPS
@@ -731,6 +734,47 @@ def test_zero_motion_test_keeps_true_motion_and_what_it_cannot_tell():
     np.testing.assert_array_equal(align(ref, ref.copy(), params=p, noise=0.02 ** 2), 0.0)
     flow = align(ref, alt, params=p, noise=0.02 ** 2, raw=(ref, alt))
     assert np.abs(flow[0, 16:-16, 16:-16] - 1.0).max() < 0.1
+
+
+def test_zero_motion_test_in_a_noise_free_region_after_a_noisy_one_matches_the_oracle():
+    # The box sums of the term variances run over the rows left to right; after large variances, a
+    # region of zero variance used to be left with round-off below zero, √ of which is NaN: the test
+    # kept there the flow that the oracle (exact sum 0) drops.  224 of the 480 right-half pixels
+    # differed before the clip (2026-11-25), with a RuntimeWarning.
+    rng = np.random.default_rng(0)
+    ref = rng.random((24, 40)).astype(np.float32)
+    alt = ref.copy()
+    alt[:, :20] = rng.random((24, 20))  # the left half differs, under a large noise variance …
+    noise = np.zeros((24, 40))
+    noise[:, :20] = rng.random((24, 20)) * 1e3 + 1e3  # … the right half is identical and noise-free
+    flow = np.full((2, 24, 40), 0.3, np.float32)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = zero_motion_test(flow, ref, alt, 2.0, noise=noise, correlation=0.0)
+    np.testing.assert_array_equal(out, zero_motion_test_oracle(flow, ref, alt, 2.0, noise=noise, correlation=0.0))
+    assert np.all(out[:, :, 24:] == 0.0)  # zero motion explains the identical half exactly
+
+
+@pytest.mark.parametrize("l2", [False, True])
+def test_block_and_window_distances_are_tile_distance_to_the_bit(l2):
+    # The search sums nine offsets side by side (block_distances); each must be tile_distance's value
+    # exactly, inside the image and where the shifted tile is clamped at an edge, for every radius.
+    rng = np.random.default_rng(3)
+    ref = rng.random((30, 34)).astype(np.float32)
+    alt = rng.random((30, 34)).astype(np.float32)
+    for oy, ox, tile in [(8, 8, 8), (0, 0, 8), (22, 26, 8), (4, 10, 16)]:
+        for q in [(0, 0), (3, -2), (-7, 5), (9, 9)]:
+            d = np.empty((3, 3))
+            block_distances(ref, alt, oy, ox, tile, q[0], q[1], l2, d, 0, 0)
+            want = [[tile_distance(ref, alt, oy, ox, tile, q[0] + a - 1, q[1] + b - 1, l2) for b in range(3)]
+                    for a in range(3)]
+            np.testing.assert_array_equal(d, want)
+        for radius in range(5):  # 2·radius + 1 = 1, 3, 5, 7, 9: whole blocks and remainders
+            d = np.empty((2 * radius + 1, 2 * radius + 1))
+            window_distances(ref, alt, oy, ox, tile, 1, -2, radius, l2, d)
+            want = [[tile_distance(ref, alt, oy, ox, tile, 1 + dy, -2 + dx, l2) for dx in range(-radius, radius + 1)]
+                    for dy in range(-radius, radius + 1)]
+            np.testing.assert_array_equal(d, want)
 
 
 def test_zero_motion_test_checks_its_arguments():

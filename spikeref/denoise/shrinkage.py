@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from spikeref._jit import njit
+from spikeref._jit import njit, prange
 from spikeref.bayer import reflect_index
 from spikeref.denoise.blindspot import check_image
 
@@ -52,39 +52,51 @@ def residual_noise_variance(denoised, window: float) -> np.ndarray:
     return p * (1.0 - p) / window
 
 
-@njit(error_model="numpy")
+@njit(parallel=True, error_model="numpy")
 def _shrink_residual(noisy, denoised, inv_window, radius, out):
     # noisy, denoised, out: (n, h, w) float32.  Per plane: r² summed over the box by a separable
-    # pass (rows, then columns) with mirrored indices, then the Wiener gain per pixel.
+    # pass (rows, then columns) with mirrored indices, then the Wiener gain per pixel.  Each sum adds
+    # the same terms in the same order as the literal oracle (0, then dx or dy from −radius to
+    # +radius); the loops run the offset outside and the pixels inside, so that the pixels vectorise.
     n, h, w = noisy.shape
     side = 2 * radius + 1
     inv_area = 1.0 / (side * side)
     lo = 0.5 * inv_window
     hi = 1.0 - lo
-    r2 = np.empty((h, w), dtype=np.float64)
-    rows = np.empty((h, w), dtype=np.float64)
-    for c in range(n):
-        for y in range(h):
+    rows = np.empty((n, h, w), dtype=np.float64)
+    x_lo = min(radius, w)  # columns x_lo … x_hi − 1 need no mirrored index
+    x_hi = max(x_lo, w - radius)
+    for t in prange(n * h):
+        c = t // h
+        y = t % h
+        r2 = np.empty(w, dtype=np.float64)
+        for x in range(w):
+            r = np.float64(noisy[c, y, x]) - np.float64(denoised[c, y, x])
+            r2[x] = r * r
+        row = rows[c, y]
+        row[:] = 0.0
+        for dx in range(-radius, radius + 1):
+            for x in range(x_lo):
+                row[x] += r2[reflect_index(x + dx, w)]  # half-sample symmetric, like Ψ
+            for x in range(x_lo, x_hi):
+                row[x] += r2[x + dx]
+            for x in range(x_hi, w):
+                row[x] += r2[reflect_index(x + dx, w)]
+    for t in prange(n * h):
+        c = t // h
+        y = t % h
+        s = np.zeros(w, dtype=np.float64)
+        for dy in range(-radius, radius + 1):
+            src = rows[c, reflect_index(y + dy, h)]
             for x in range(w):
-                r = np.float64(noisy[c, y, x]) - np.float64(denoised[c, y, x])
-                r2[y, x] = r * r
-        for y in range(h):
-            for x in range(w):
-                s = 0.0
-                for dx in range(-radius, radius + 1):
-                    s += r2[y, reflect_index(x + dx, w)]  # half-sample symmetric, like Ψ
-                rows[y, x] = s
-        for y in range(h):
-            for x in range(w):
-                s = 0.0
-                for dy in range(-radius, radius + 1):
-                    s += rows[reflect_index(y + dy, h), x]
-                energy = s * inv_area
-                d = np.float64(denoised[c, y, x])
-                p = min(max(d, lo), hi)
-                var = p * (1.0 - p) * inv_window
-                gain = 1.0 - var / energy if energy > var else 0.0
-                out[c, y, x] = d + gain * (np.float64(noisy[c, y, x]) - d)
+                s[x] += src[x]
+        for x in range(w):
+            energy = s[x] * inv_area
+            d = np.float64(denoised[c, y, x])
+            p = min(max(d, lo), hi)
+            var = p * (1.0 - p) * inv_window
+            gain = 1.0 - var / energy if energy > var else 0.0
+            out[c, y, x] = d + gain * (np.float64(noisy[c, y, x]) - d)
 
 
 def shrink_residual(noisy, denoised, window: float, radius: int = 1) -> np.ndarray:
