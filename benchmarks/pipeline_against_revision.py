@@ -9,9 +9,10 @@ turn and ``--rounds`` times, a fresh process of each revision that opens the fil
 (``spikeref.reconstruct``'s ``ReconstructParams()`` and its bundled network) at W/K/L = 10/3/3; with
 ``--preset paper``, the paper's procedure as ``benchmarks/test_speed_pipeline.py`` times it
 (``ReconstructParams.paper()`` and the bundled network with ``guard="off"``), and ``--preset fast`` the fast
-preset.  The
-first frame of each process is left out of the timing (it compiles or loads the kernels).  Prints
-frames/s per round and the ratio of the medians.  Needs git and the revision in this clone.
+preset.  The first frame of each process is left out of the timing (it compiles or loads the kernels).  Prints
+frames/s per round and the ratio of the medians, and the time a frame spends outside the U-Net's passes
+(``Reconstructor.profile()``), which does not move with the network's speed from one process to the next.
+Needs git and the revision in this clone.
 """
 
 from __future__ import annotations
@@ -45,10 +46,17 @@ a = rec.frames_available.start
 n = int(sys.argv[4])
 it = iter(rec.frames(a, a + n + 1))
 next(it)  # compile / load
+frames_before = dict(rec.profile().seconds)
 t0 = time.perf_counter()
 for _ in it:
     pass
-print(json.dumps({"fps": n / (time.perf_counter() - t0), "module": sr.__file__}))
+total = time.perf_counter() - t0
+# the stage breakdown of the timed frames only: the profile's seconds less those of the first frame
+first = frames_before
+prof = rec.profile().seconds
+stages = {k: (v - first.get(k, 0.0)) / n for k, v in prof.items() if k not in ("write", "other")}
+print(json.dumps({"fps": n / total, "ms": 1e3 * total / n, "net_ms": 1e3 * stages.get("network", 0.0),
+                  "module": sr.__file__}))
 """
 
 
@@ -86,13 +94,20 @@ def main(argv=None) -> None:
                 for name, src in (("before", old), ("now", REPO)):
                     out = _run(src, dat, h, w, args.frames, args.preset)
                     assert Path(out["module"]).resolve().is_relative_to(src.resolve()), out["module"]
-                    fps[name].append(out["fps"])
-                    print(f"round {r + 1}: {name:6s} {out['fps']:6.2f} frames/s", flush=True)
+                    outside = out["ms"] - out["net_ms"]
+                    out["outside_ms"], out["share"] = outside, outside / out["ms"]
+                    fps[name].append(out)
+                    print(f"round {r + 1}: {name:6s} {out['fps']:6.2f} frames/s; outside the network "
+                          f"{outside:5.1f} ms a frame ({out['share']:.1%})", flush=True)
         finally:
             subprocess.run(["git", "-C", str(REPO), "worktree", "remove", "--force", str(old)], check=False)
-    before, now = statistics.median(fps["before"]), statistics.median(fps["now"])
+    med = {name: {key: statistics.median(o[key] for o in runs) for key in ("fps", "outside_ms", "share")}
+           for name, runs in fps.items()}
+    before, now = med["before"]["fps"], med["now"]["fps"]
     print(f"median frames/s at {h}x{w}, 10/3/3, {args.preset}: {args.rev} {before:.2f}, now {now:.2f} "
           f"({now / before:.2f}x)")
+    print(f"median outside the network (ms a frame, share): {args.rev} {med['before']['outside_ms']:.1f} "
+          f"({med['before']['share']:.1%}), now {med['now']['outside_ms']:.1f} ({med['now']['share']:.1%})")
 
 
 if __name__ == "__main__":
