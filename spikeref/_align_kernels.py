@@ -62,8 +62,9 @@ def tile_distance(ref, alt, oy, ox, tile, dy, dx, l2):
 
 
 @njit(inline="always")
-def square(v):
-    return v * v
+def term(d, l2):
+    """One sample's share of a tile distance: ``d²`` (L2) or ``|d|`` (L1)."""
+    return d * d if l2 else abs(d)
 
 
 @njit(inline="always")
@@ -86,30 +87,17 @@ def block_distances(ref, alt, oy, ox, tile, qy, qx, l2, d, i0, j0):
         a0 = alt[y + qy - 1, ox + qx - 1:ox + qx + tile + 1]
         a1 = alt[y + qy, ox + qx - 1:ox + qx + tile + 1]
         a2 = alt[y + qy + 1, ox + qx - 1:ox + qx + tile + 1]
-        if l2:
-            for x in range(tile):
-                rv = np.float64(r[x])
-                s00 += square(rv - np.float64(a0[x]))
-                s01 += square(rv - np.float64(a0[x + 1]))
-                s02 += square(rv - np.float64(a0[x + 2]))
-                s10 += square(rv - np.float64(a1[x]))
-                s11 += square(rv - np.float64(a1[x + 1]))
-                s12 += square(rv - np.float64(a1[x + 2]))
-                s20 += square(rv - np.float64(a2[x]))
-                s21 += square(rv - np.float64(a2[x + 1]))
-                s22 += square(rv - np.float64(a2[x + 2]))
-        else:
-            for x in range(tile):
-                rv = np.float64(r[x])
-                s00 += abs(rv - np.float64(a0[x]))
-                s01 += abs(rv - np.float64(a0[x + 1]))
-                s02 += abs(rv - np.float64(a0[x + 2]))
-                s10 += abs(rv - np.float64(a1[x]))
-                s11 += abs(rv - np.float64(a1[x + 1]))
-                s12 += abs(rv - np.float64(a1[x + 2]))
-                s20 += abs(rv - np.float64(a2[x]))
-                s21 += abs(rv - np.float64(a2[x + 1]))
-                s22 += abs(rv - np.float64(a2[x + 2]))
+        for x in range(tile):  # LLVM takes the test of l2 out of the loop
+            rv = np.float64(r[x])
+            s00 += term(rv - np.float64(a0[x]), l2)
+            s01 += term(rv - np.float64(a0[x + 1]), l2)
+            s02 += term(rv - np.float64(a0[x + 2]), l2)
+            s10 += term(rv - np.float64(a1[x]), l2)
+            s11 += term(rv - np.float64(a1[x + 1]), l2)
+            s12 += term(rv - np.float64(a1[x + 2]), l2)
+            s20 += term(rv - np.float64(a2[x]), l2)
+            s21 += term(rv - np.float64(a2[x + 1]), l2)
+            s22 += term(rv - np.float64(a2[x + 2]), l2)
     d[i0, j0] = s00
     d[i0, j0 + 1] = s01
     d[i0, j0 + 2] = s02
