@@ -12,7 +12,7 @@ turn and ``--rounds`` times, a fresh process of each revision that opens the fil
 preset.  The first frame of each process is left out of the timing (it compiles or loads the kernels).  Prints
 frames/s per round and the ratio of the medians, and the time a frame spends outside the U-Net's passes
 (``Reconstructor.profile()``), which does not move with the network's speed from one process to the next.
-Needs git and the revision in this clone.
+Needs git and the revision in this clone; the revision must have ``Reconstructor.profile()`` (8faa5d0 and later).
 """
 
 from __future__ import annotations
@@ -52,9 +52,8 @@ for _ in it:
     pass
 total = time.perf_counter() - t0
 # the stage breakdown of the timed frames only: the profile's seconds less those of the first frame
-first = frames_before
 prof = rec.profile().seconds
-stages = {k: (v - first.get(k, 0.0)) / n for k, v in prof.items() if k not in ("write", "other")}
+stages = {k: (v - frames_before.get(k, 0.0)) / n for k, v in prof.items() if k not in ("write", "other")}
 print(json.dumps({"fps": n / total, "ms": 1e3 * total / n, "net_ms": 1e3 * stages.get("network", 0.0),
                   "module": sr.__file__}))
 """

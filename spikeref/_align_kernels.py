@@ -14,6 +14,7 @@ from spikeref._jit import njit, prange
 
 __all__ = [
     "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "block_distances", "blur_decimate_kernel",
+    "box_sums",
     "dense_flow", "fit_offset", "gradient", "integral_image", "interp_index", "jacobi_sweeps", "lucas_kanade",
     "nearest_tiles", "search_tiles", "subpixel_fit", "tile_distance", "upsample_tiles", "window_distances",
     "zero_test_terms",
@@ -73,7 +74,8 @@ def block_distances(ref, alt, oy, ox, tile, qy, qx, l2, d, i0, j0):
 
     The nine sums run side by side, each adding the same terms in the same order as :func:`tile_distance`
     (so the same float64 values): nine independent chains where one offset at a time is a single chain.
-    Blocks with a shifted tile partly outside the image take :func:`tile_distance`'s clamped path.
+    A block with any of its nine shifted tiles partly outside the image calls :func:`tile_distance` for each
+    offset (which clamps only where it has to).
     """
     h, w = alt.shape
     if oy + qy - 1 < 0 or oy + qy + 1 + tile > h or ox + qx - 1 < 0 or ox + qx + 1 + tile > w:
@@ -470,6 +472,30 @@ def dense_flow(vectors, tile, out):
                 top = (1.0 - fx) * np.float64(vectors[i0, j0, c]) + fx * np.float64(vectors[i0, j1, c])
                 bottom = (1.0 - fx) * np.float64(vectors[i1, j0, c]) + fx * np.float64(vectors[i1, j1, c])
                 out[c, y, x] = (1.0 - fy) * top + fy * bottom
+
+
+@njit(parallel=True)
+def box_sums(values, half, out):
+    """``out[p]`` = Σ of ``values`` over the ``(2·half + 1)²`` box around ``p``, the edge replicated (float64).
+
+    Rows, then columns, each sum from 0 in the order of the offsets: a direct sum, not a running one, so a box
+    of exact zeros sums to exactly 0 (SciPy's ``uniform_filter`` carries round-off of the values before it).
+    """
+    h, w = values.shape
+    rows = np.empty((h, w))
+    for y in prange(h):
+        row = rows[y]
+        row[:] = 0.0
+        for dx in range(-half, half + 1):
+            for x in range(w):
+                row[x] += values[y, min(max(x + dx, 0), w - 1)]
+    for y in prange(h):
+        acc = out[y]
+        acc[:] = 0.0
+        for dy in range(-half, half + 1):
+            src = rows[min(max(y + dy, 0), h - 1)]
+            for x in range(w):
+                acc[x] += src[x]
 
 
 @njit

@@ -22,7 +22,7 @@ import functools
 import numpy as np
 from scipy.ndimage import uniform_filter
 
-from spikeref._align_kernels import PYRAMID_KERNEL, integral_image, zero_test_terms
+from spikeref._align_kernels import PYRAMID_KERNEL, box_sums, integral_image, zero_test_terms
 from spikeref.noise_level import immerkaer_response
 
 __all__ = [
@@ -271,8 +271,9 @@ def zero_motion_test(flow, reference, alternate, z: float, noise=None, correlati
     """The flow with zero motion where zero explains the frames better (``AlignParams.zero_test``; not in the paper).
 
     Per pixel ``p``, ``d(p) = (r(p) − a(p))² − (r(p) − a(p + F(p)))²`` less its mean under noise alone, summed
-    over the ``box × box`` pixels around ``p`` (SciPy's ``uniform_filter``, ``mode="nearest"``); where that
-    sum is below ``−z`` standard deviations of what noise gives (:func:`zero_test_terms`), the zero offset
+    over the ``box × box`` pixels around ``p`` (the edge replicated; a direct sum,
+    :func:`~spikeref._align_kernels.box_sums`); where that sum is below ``−z`` standard deviations of what
+    noise gives (:func:`zero_test_terms`), the zero offset
     fits the data significantly better than the flow and ``F(p)`` becomes 0.  Where the two are not told
     apart (flat regions) the flow is kept.
 
@@ -341,9 +342,12 @@ def apply_zero_motion(flow: np.ndarray, ref: np.ndarray, alt: np.ndarray, z: flo
     d = np.empty(ref.shape, np.float64)
     var = np.empty(ref.shape, np.float64)
     zero_test_terms(ref, alt, flow, noise, rho, d, var)
-    total = uniform_filter(d, box, mode="nearest")
-    # var ≥ 0, but the filter's running sums leave round-off of either sign where it follows large values:
-    # clipped, so that a noise-free region compares S with 0 (the oracle's exact sum) instead of with NaN
-    spread = np.maximum(uniform_filter(var, box, mode="nearest"), 0.0)
-    flow[:, total < -z * np.sqrt(spread / (box * box))] = 0.0
+    # S and Q as direct box sums: a running sum (SciPy's uniform_filter, until 2026-11-25) left round-off of
+    # either sign where it followed large values, so a noise-free region compared noise with 0 (or took √ of a
+    # negative Q), where the oracle's exact sums keep the flow
+    total = np.empty_like(d)
+    spread = np.empty_like(var)
+    box_sums(d, box // 2, total)
+    box_sums(var, box // 2, spread)
+    flow[:, total < -z * np.sqrt(spread)] = 0.0
     return flow

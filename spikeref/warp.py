@@ -67,7 +67,8 @@ def _warp_average(images, flows, out):
 
     The sums are float32 after every tap, in the order tap (0, 0), (0, 1), (1, 0), (1, 1) per frame;
     a sample whose four taps are all inside takes a branch-free path that adds the same terms in
-    that order (its zero weights add exact zeros), the others drop their outside and zero taps.
+    that order (its zero weights add exact zeros: the same values, but a sum of negative zeros may
+    now be +0), the others drop their outside and zero taps.
     """
     n, nc, h, w = images.shape
     for y in prange(h):

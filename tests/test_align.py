@@ -740,7 +740,7 @@ def test_zero_motion_test_in_a_noise_free_region_after_a_noisy_one_matches_the_o
     # The box sums of the term variances run over the rows left to right; after large variances, a
     # region of zero variance used to be left with round-off below zero, √ of which is NaN: the test
     # kept there the flow that the oracle (exact sum 0) drops.  224 of the 480 right-half pixels
-    # differed before the clip (2026-11-25), with a RuntimeWarning.
+    # differed with SciPy's uniform_filter (until 2026-11-25), with a RuntimeWarning.
     rng = np.random.default_rng(0)
     ref = rng.random((24, 40)).astype(np.float32)
     alt = ref.copy()
@@ -753,6 +753,18 @@ def test_zero_motion_test_in_a_noise_free_region_after_a_noisy_one_matches_the_o
         out = zero_motion_test(flow, ref, alt, 2.0, noise=noise, correlation=0.0)
     np.testing.assert_array_equal(out, zero_motion_test_oracle(flow, ref, alt, 2.0, noise=noise, correlation=0.0))
     assert np.all(out[:, :, 24:] == 0.0)  # zero motion explains the identical half exactly
+    # a constant, noise-free right half: d = 0 exactly, nothing tells zero from the flow, which is kept (the
+    # clip of the running sum that came first dropped it at 80–128 of its pixels: round-off below 0)
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        ref, alt = rng.random((2, 24, 40)).astype(np.float32)
+        ref[:, 20:] = alt[:, 20:] = 0.5
+        noise = np.zeros((24, 40))
+        noise[:, :20] = rng.random((24, 20)) * 1e3 + 1e3
+        out = zero_motion_test(flow, ref, alt, 2.0, noise=noise, correlation=0.0)
+        np.testing.assert_array_equal(out, zero_motion_test_oracle(flow, ref, alt, 2.0, noise=noise,
+                                                                   correlation=0.0))
+        assert np.all(out[:, :, 24:] == np.float32(0.3))
 
 
 @pytest.mark.parametrize("l2", [False, True])
@@ -763,7 +775,10 @@ def test_block_and_window_distances_are_tile_distance_to_the_bit(l2):
     ref = rng.random((30, 34)).astype(np.float32)
     alt = rng.random((30, 34)).astype(np.float32)
     for oy, ox, tile in [(8, 8, 8), (0, 0, 8), (22, 26, 8), (4, 10, 16)]:
-        for q in [(0, 0), (3, -2), (-7, 5), (9, 9)]:
+        # inside, far outside, and one past each edge with the other axis inside (tile at (8, 8): the block
+        # (−8, 0) reaches row −1 and (14, 0) row 30 of 30; the same for the columns)
+        for q in [(0, 0), (3, -2), (-7, 5), (9, 9), (-oy, 0), (0, -ox), (30 - oy - tile, 0), (0, 34 - ox - tile),
+                  (-oy + 1, 0), (0, -ox + 1), (30 - oy - tile - 1, 0), (0, 34 - ox - tile - 1)]:
             d = np.empty((3, 3))
             block_distances(ref, alt, oy, ox, tile, q[0], q[1], l2, d, 0, 0)
             want = [[tile_distance(ref, alt, oy, ox, tile, q[0] + a - 1, q[1] + b - 1, l2) for b in range(3)]

@@ -56,8 +56,9 @@ def residual_noise_variance(denoised, window: float) -> np.ndarray:
 def _shrink_residual(noisy, denoised, inv_window, radius, out):
     # noisy, denoised, out: (n, h, w) float32.  Per plane: r² summed over the box by a separable
     # pass (rows, then columns) with mirrored indices, then the Wiener gain per pixel.  Each sum adds
-    # the same terms in the same order as the literal oracle (0, then dx or dy from −radius to
-    # +radius); the loops run the offset outside and the pixels inside, so that the pixels vectorise.
+    # the same terms in the same order as this kernel did before 2026-11-25 (0, then dx or dy from
+    # −radius to +radius; the literal oracle takes np.mean of the 2-D box, equal within round-off);
+    # the loops run the offset outside and the pixels inside, so that the pixels vectorise.
     n, h, w = noisy.shape
     side = 2 * radius + 1
     inv_area = 1.0 / (side * side)
