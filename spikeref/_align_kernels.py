@@ -16,7 +16,8 @@ __all__ = [
     "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "block_distances", "blur_decimate_kernel",
     "box_sums",
     "dense_flow", "fit_offset", "gradient", "integral_image", "interp_index", "jacobi_sweeps", "lucas_kanade",
-    "nearest_tiles", "search_tiles", "subpixel_fit", "tile_distance", "upsample_tiles", "window_distances",
+    "nearest_tiles", "search_tiles", "subpixel_fit", "tile_distance", "tile_sums_from_integral", "upsample_tiles",
+    "window_distances",
     "zero_test_terms",
 ]
 
@@ -496,6 +497,18 @@ def box_sums(values, half, out):
             src = rows[min(max(y + dy, 0), h - 1)]
             for x in range(w):
                 acc[x] += src[x]
+
+
+@njit
+def tile_sums_from_integral(c, tile, out):
+    """``out[i, j]`` = Σ over tile ``(i, j)`` (size ``tile``, stride ``tile/2``) from the integral image ``c``:
+    ``((c[y1, x1] − c[y0, x1]) − c[y1, x0]) + c[y0, x0]``."""
+    s = tile // 2
+    for i in range(out.shape[0]):
+        y0 = i * s
+        for j in range(out.shape[1]):
+            x0 = j * s
+            out[i, j] = c[y0 + tile, x0 + tile] - c[y0, x0 + tile] - c[y0 + tile, x0] + c[y0, x0]
 
 
 @njit

@@ -22,7 +22,9 @@ import functools
 import numpy as np
 from scipy.ndimage import uniform_filter
 
-from spikeref._align_kernels import PYRAMID_KERNEL, box_sums, integral_image, zero_test_terms
+from spikeref._align_kernels import (
+    PYRAMID_KERNEL, box_sums, integral_image, tile_sums_from_integral, zero_test_terms,
+)
 from spikeref.noise_level import immerkaer_response
 
 __all__ = [
@@ -234,11 +236,9 @@ def tile_sums(values: np.ndarray, tile: int, shape: tuple[int, int]) -> np.ndarr
     """``Σ`` of ``values`` over every tile of the grid ``shape`` (size ``tile``, stride ``tile/2``)."""
     c = np.zeros((values.shape[0] + 1, values.shape[1] + 1))
     integral_image(np.ascontiguousarray(values, np.float64), c)  # = cumsum(cumsum(values, 0), 1), bit for bit
-    s = tile // 2
-    y0 = np.arange(shape[0]) * s
-    x0 = np.arange(shape[1]) * s
-    return (c[y0[:, None] + tile, x0[None, :] + tile] - c[y0[:, None], x0[None, :] + tile]
-            - c[y0[:, None] + tile, x0[None, :]] + c[y0[:, None], x0[None, :]])
+    out = np.empty((int(shape[0]), int(shape[1])))
+    tile_sums_from_integral(c, int(tile), out)
+    return out
 
 
 def search_thresholds(var_k: np.ndarray, factors: tuple[float, float], tile: int, shape, l2: bool, z: float,

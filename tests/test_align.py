@@ -1034,3 +1034,15 @@ def test_the_oracle_states_the_kernels_constants_and_defaults_on_its_own():
 
     assert literal.PD_TOLERANCE == fast.PD_TOLERANCE and literal.SLACK == fast.SLACK
     assert vars(literal.PAPER_ALIGN) == dataclasses.asdict(fast.AlignParams())
+
+
+def test_tile_sums_are_the_sums_over_each_tile():
+    from spikeref.align_noise import tile_sums
+
+    rng = np.random.default_rng(12)
+    values = rng.integers(0, 1000, (21, 30)).astype(np.float64)  # integers: every order of the sums is exact
+    for tile in (2, 4, 8):
+        grid = ((21 - tile) // (tile // 2) + 1, (30 - tile) // (tile // 2) + 1)
+        want = [[values[i * tile // 2:i * tile // 2 + tile, j * tile // 2:j * tile // 2 + tile].sum()
+                 for j in range(grid[1])] for i in range(grid[0])]
+        np.testing.assert_array_equal(tile_sums(values, tile, grid), want)
