@@ -40,6 +40,7 @@ from spikeref.oracles.case import OracleCase
 
 __all__ = [
     "PAPER_ALIGN",
+    "case_align_params",
     "gaussian_pyramid_oracle",
     "tile_distance_oracle",
     "nearest_tiles_oracle",
@@ -699,7 +700,7 @@ def zero_motion_test_oracle(flow, reference, alternate, z, noise=None, correlati
 
 
 # ----------------------------------------------------------------------------- the golden cases
-def _case_params(settings: dict) -> SimpleNamespace:
+def case_align_params(settings: dict) -> SimpleNamespace:
     """A case's alignment parameters: :data:`PAPER_ALIGN` with the case's ``settings``."""
     return SimpleNamespace(**{**vars(PAPER_ALIGN), **settings})
 
@@ -733,7 +734,7 @@ def _hdrplus_outputs(i, tiles, dense, params):
 
 def _hdrplus_oracle(i):
     """As :func:`_hdrplus_outputs`, each tile field found once and made dense by :func:`flow_from_tiles_oracle`."""
-    p = _case_params(_HDRPLUS)
+    p = case_align_params(_HDRPLUS)
     out = {}
     for step in (0, 2):
         vt = [align_tiles_oracle(i["reference"], a, step, p) for a in i["alternates"]]
@@ -900,7 +901,7 @@ GOLDEN_CASES = (
         _inputs_align_noise_aware,
         lambda i: _noise_aware_outputs(i, align_tiles_oracle,
                                        lambda r, a: 0.5 * (local_noise_oracle(r) + local_noise_oracle(a)),
-                                       estimate_noise_correlation_oracle, _case_params),
+                                       estimate_noise_correlation_oracle, case_align_params),
         rtol=1e-5, atol=1e-7,
         params={"levels": 3, "tile_by_step": [16, 8], "coarse_tile": 8, "search_radius": [1, 4, 4],
                 "subpixel": True, "prefer_centre": 3.0, "pyramid_kernel": [1, 4, 6, 4, 1], "local_noise_box": 15,
@@ -927,7 +928,7 @@ GOLDEN_CASES = (
         "regularisation (lk), the vectors and flow of the blurred flow frames with the noise given and the zero "
         "test on the raw frames (given), and of the raw frames with every noise quantity estimated (estimated). "
         "Convention: alternate[y+dy, x+dx] ≈ reference[y, x]; in_shifts holds the true motion.",
-        _inputs_align_lk, lambda i: _lk_outputs(i, align_tiles_oracle, align_oracle, _case_params),
+        _inputs_align_lk, lambda i: _lk_outputs(i, align_tiles_oracle, align_oracle, case_align_params),
         rtol=1e-5, atol=1e-6,
         params={"levels": 3, "tile_by_step": [16, 8], "coarse_tile": 8, "search_radius": [1, 4, 4],
                 "subpixel": True, "prefer_centre": 3.0, "refine": "lk", "lk_iterations": 2, "smoothness": 300.0,

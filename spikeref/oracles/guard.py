@@ -5,6 +5,7 @@ import math
 import numpy as np
 
 from spikeref.oracles.case import OracleCase
+from spikeref.oracles.shrinkage import box3_mean
 
 __all__ = ["noise_sigma_oracle", "sure_alpha_oracle", "quantisation_variance_oracle", "carried_excess_variance_oracle",
            "GOLDEN_CASES"]
@@ -105,13 +106,6 @@ def sure_alpha_oracle(noisy, denoised, probed, probe, eps, sigma, radius=8):
 
 
 # ----------------------------------------------------------------------------- the golden cases
-def _box3(a):
-    """3×3 mean of each plane, half-sample symmetric border (a linear stand-in for the network)."""
-    h, w = a.shape[-2:]
-    padded = np.pad(a, ((0, 0), (1, 1), (1, 1)), mode="symmetric")
-    return sum(padded[:, dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)) / 9.0
-
-
 def _inputs_guard():
     """Four 9×13 planes ``y`` of rates of a ``W = 10`` window (binomial counts of a field with a step edge
     and a ramp), ``f`` = their 3×3 mean (a linear denoiser, so ``f(y + εb) = f(y) + ε·f(b)`` is the probed
@@ -126,9 +120,9 @@ def _inputs_guard():
     noisy = rng.binomial(10, truth) / 10.0
     probe = (rng.integers(0, 2, (4, h, w)) * 2 - 1).astype(np.float64)
     eps = np.array([0.004, 0.006, 0.009, 0.0])
-    denoised = _box3(noisy)
+    denoised = box3_mean(noisy)
     denoised[3, :5] = noisy[3, :5]
-    probed = denoised + eps[:, None, None] * _box3(probe)
+    probed = denoised + eps[:, None, None] * box3_mean(probe)
     short = rng.binomial(10, truth) / 10.0
     return {"noisy": noisy, "denoised": denoised, "probed": probed, "probe": probe, "eps": eps,
             "sigma_plane": np.array([0.05, 0.08, 0.1, 0.12]), "sigma_pixel": np.sqrt(truth * (1 - truth) / 10.0),

@@ -50,13 +50,12 @@ Options beyond the paper (defaults of :class:`spikeref.pipeline.ReconstructParam
 from __future__ import annotations
 
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 from scipy.ndimage import gaussian_filter, map_coordinates
 
 from spikeref.oracles.accumulate import accumulate_oracle
-from spikeref.oracles.align import PAPER_ALIGN, align_oracle
+from spikeref.oracles.align import align_oracle, case_align_params
 from spikeref.oracles.bayer import bayer_planes_oracle, demosaic_bilinear_oracle
 from spikeref.oracles.case import OracleCase
 from spikeref.oracles.charge import window_charge_oracle
@@ -350,7 +349,7 @@ def _pipeline_case_oracle(i, outputs=("rgb", "flows", "steps"), **variant):
     as float32 (the file stays small)."""
     c = _PIPELINE
     out = reconstruct_oracle(i["spikes"], c["cfa"], c["window"], c["K"], c["L"], unet_params_from_inputs(i),
-                             SimpleNamespace(**{**vars(PAPER_ALIGN), **c["align"]}), c["frames"],
+                             case_align_params(c["align"]), c["frames"],
                              keep_steps="steps" in outputs, **variant)
     if "steps" in outputs:
         out["steps"] = out["steps"][:, :-1]  # R_L is out["rgb"]

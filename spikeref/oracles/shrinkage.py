@@ -4,7 +4,7 @@ import numpy as np
 
 from spikeref.oracles.case import OracleCase
 
-__all__ = ["shrink_residual_oracle", "GOLDEN_CASES"]
+__all__ = ["shrink_residual_oracle", "box3_mean", "GOLDEN_CASES"]
 
 
 def shrink_residual_oracle(noisy, denoised, window, radius=1):
@@ -30,6 +30,14 @@ def shrink_residual_oracle(noisy, denoised, window, radius=1):
 
 
 # ----------------------------------------------------------------------------- the golden cases
+def box3_mean(a):
+    """3×3 mean of each plane ``(n, h, w)``, half-sample symmetric border: the golden cases' linear stand-in
+    for the network (here and in :mod:`spikeref.oracles.guard`)."""
+    h, w = a.shape[-2:]
+    padded = np.pad(a, ((0, 0), (1, 1), (1, 1)), mode="symmetric")
+    return sum(padded[:, dy:dy + h, dx:dx + w] for dy in range(3) for dx in range(3)) / 9.0
+
+
 def _inputs_shrinkage():
     """float32 rates of W = 10 and W = 200 windows of four 7×9 planes with a step edge, and a 3×3 box
     blur of them standing in for D(I) (so the residual is large at the edge, noise elsewhere).
@@ -42,8 +50,7 @@ def _inputs_shrinkage():
     out = {}
     for w in (10, 200):
         noisy = rng.binomial(w, truth) / w
-        padded = np.pad(noisy, ((0, 0), (1, 1), (1, 1)), mode="symmetric")
-        denoised = sum(padded[:, dy:dy + 7, dx:dx + 9] for dy in range(3) for dx in range(3)) / 9
+        denoised = box3_mean(noisy)
         denoised[3, :2] = noisy[3, :2]
         denoised[0, 0, 0], denoised[3, 6, 8] = 0.0, 1.0
         out[f"noisy_w{w}"] = noisy.astype(np.float32)
