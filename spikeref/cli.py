@@ -264,6 +264,7 @@ def _check_input_options(args) -> None:
 def open_input(args):
     """Open the stream named by the parsed input options (sizes from the NAME.json sidecar if not given)."""
     from spikeref.bayer import CFA_PATTERNS, validate_cfa
+    from spikeref.io.dat import sidecar_path
     from spikeref.stream import open_spike_file
 
     _check_input_options(args)
@@ -280,8 +281,8 @@ def open_input(args):
     stream = open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
                              file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
     if path.suffix.lower() == ".dat" and (args.height is None or args.width is None) \
-            and not path.with_suffix(".json").is_file():
-        print(f"note: {path.name} has no {path.with_suffix('.json').name} beside it: read as "
+            and not sidecar_path(path).is_file():
+        print(f"note: {path.name} has no {sidecar_path(path).name} beside it: read as "
               f"{stream.height}×{stream.width} {stream.cfa or 'mono'} (give --height/--width/--cfa if it is not)",
               file=sys.stderr)
     return stream

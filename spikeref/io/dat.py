@@ -28,6 +28,7 @@ import numpy as np
 from spikeref.io.atomic import atomic_write, publish, temporary_beside
 
 __all__ = [
+    "sidecar_path",
     "plane_nbytes",
     "check_spikes",
     "pack_planes",
@@ -208,9 +209,14 @@ def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
     return Path(path)
 
 
+def sidecar_path(path) -> Path:
+    """``NAME.json`` beside ``NAME.dat``: the size and CFA the ``.dat`` cannot hold."""
+    return Path(path).with_suffix(".json")
+
+
 def read_sidecar(path) -> dict:
     """The ``NAME.json`` beside a ``NAME.dat`` (sizes, CFA, rate written by ``spikeref simulate``), or ``{}``."""
-    meta_path = Path(path).with_suffix(".json")
+    meta_path = sidecar_path(path)
     if not meta_path.is_file():
         return {}
     try:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from spikeref.io.atomic import atomic_write
-from spikeref.io.dat import DatWriter
+from spikeref.io.dat import DatWriter, sidecar_path
 from spikeref.io.exr import write_exr
 from spikeref.io.npz import NpzWriter
 from spikeref.simulate import effects as fx
@@ -25,11 +25,6 @@ __all__ = ["simulate_to_dat", "gt_exr_name", "sidecar_path"]
 def gt_exr_name(index: int) -> str:
     """File name of ground-truth frame ``index`` in an EXR folder."""
     return f"gt_{index:06d}.exr"
-
-
-def sidecar_path(path) -> Path:
-    """``NAME.json`` beside ``NAME.dat``: the size and CFA the ``.dat`` cannot hold."""
-    return Path(path).with_suffix(".json")
 
 
 def _effects_table(effects: dict) -> dict:
