@@ -26,12 +26,13 @@ from pathlib import Path
 
 import numpy as np
 
-from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
-from spikeref.bench.ladder import binomial_weights, clean_window_counts, has_true_flow, true_flow_frame
+from spikeref.bayer import bayer_planes, demosaic_bilinear
+from spikeref.bench.ladder import (
+    binomial_weights, clean_window_counts, has_true_flow, psi, psnr_score, true_flow_frame,
+)
 from spikeref.bench.runner import bench_scenes, load_bench_scene, score_centres
 from spikeref.charge import window_charge
 from spikeref.denoise.peers import PeerDenoiser
-from spikeref.metrics import psnr
 from spikeref.simulate.camera import mosaic_radiance
 
 HELDOUT = Path(__file__).resolve().parent / "heldout_scenes"
@@ -56,12 +57,6 @@ def main(argv=None) -> None:
         sc.simulate(seed)
         cfa = sc.stream.cfa
 
-        def psi(planes, cfa=cfa):
-            return demosaic_bilinear(bayer_mosaic(np.asarray(planes, np.float32), cfa), cfa)
-
-        def score(truth, image):  # the ladder's PSNR: linear RGB, the truth's peak as the range
-            return psnr(truth, np.asarray(image, dtype=np.float64), float(truth.max()))
-
         centres = score_centres(len(sc.stream), 4)
         offset = (centres[0] - w // 2) % w
         view = sc.stream.slice(offset)
@@ -76,12 +71,12 @@ def main(argv=None) -> None:
             tf = true_flow_frame(charges, sc.scene.content, w, start, reach, weights)
             sigma = float(np.std(tf - clean_tf))
             rows.append({
-                "limit": score(truth, demosaic_bilinear(mosaic_radiance(truth, cfa).astype(np.float32), cfa)),
-                "clean": score(truth, psi(clean_tf)),
-                "tf": score(truth, psi(tf)),
-                "bm3d": score(truth, psi(blind(tf))),
-                "bm3d_true_sigma": score(truth, psi(PeerDenoiser("bm3d", sigma=sigma)(tf))),
-                "bm3d_2x_sigma": score(truth, psi(PeerDenoiser("bm3d", sigma=2 * sigma)(tf))),
+                "limit": psnr_score(truth, demosaic_bilinear(mosaic_radiance(truth, cfa).astype(np.float32), cfa)),
+                "clean": psnr_score(truth, psi(clean_tf, cfa)),
+                "tf": psnr_score(truth, psi(tf, cfa)),
+                "bm3d": psnr_score(truth, psi(blind(tf), cfa)),
+                "bm3d_true_sigma": psnr_score(truth, psi(PeerDenoiser("bm3d", sigma=sigma)(tf), cfa)),
+                "bm3d_2x_sigma": psnr_score(truth, psi(PeerDenoiser("bm3d", sigma=2 * sigma)(tf), cfa)),
                 "noise_rel": sigma / float(clean[reach].mean() / w),
             })
         per_scene[sc.key] = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}

@@ -58,7 +58,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 __all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "PEER_RUNGS", "TRUE_FLOW_RUNGS", "LadderSetting", "binomial_weights",
-           "has_true_flow", "clean_window_counts", "true_flow_frame", "run_ladder", "ladder_markdown", "plot_ladder"]
+           "has_true_flow", "clean_window_counts", "true_flow_frame", "psi", "psnr_score", "run_ladder",
+           "ladder_markdown", "plot_ladder"]
 
 #: The rungs, bottom to top.
 RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
@@ -172,12 +173,25 @@ def true_flow_frame(counts: np.ndarray, content, window: int, first_plane: int, 
     return (acc / np.maximum(wsum, 1e-12)).astype(np.float32)
 
 
-def _score(reference: np.ndarray, image: np.ndarray) -> dict:
-    from spikeref.metrics import psnr, ssim
+def psi(planes, cfa: str) -> np.ndarray:
+    """``Ψ`` of four Bayer planes ``(..., 4, h, w)``: the mosaic, then the bilinear demosaic (float32 RGB)."""
+    from spikeref.bayer import bayer_mosaic, demosaic_bilinear
 
-    img = np.asarray(image, dtype=np.float64)
-    top = float(reference.max())
-    return {"psnr": psnr(reference, img, top), "ssim": ssim(reference, img, top)}
+    return demosaic_bilinear(bayer_mosaic(np.asarray(planes, dtype=np.float32), cfa), cfa)
+
+
+def psnr_score(reference: np.ndarray, image: np.ndarray) -> float:
+    """The ladder's PSNR: linear RGB against ``reference``, the reference's peak as the data range."""
+    from spikeref.metrics import psnr
+
+    return psnr(reference, np.asarray(image, dtype=np.float64), float(reference.max()))
+
+
+def _score(reference: np.ndarray, image: np.ndarray) -> dict:
+    from spikeref.metrics import ssim
+
+    return {"psnr": psnr_score(reference, image),
+            "ssim": ssim(reference, np.asarray(image, dtype=np.float64), float(reference.max()))}
 
 
 def _epe(est: np.ndarray, true: np.ndarray, visible: np.ndarray) -> float:
@@ -195,7 +209,7 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
     """
     from spikeref.accumulate import window_counts
     from spikeref.charge import window_charge
-    from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
+    from spikeref.bayer import bayer_planes, demosaic_bilinear
     from spikeref.pipeline import ReconstructParams, Reconstructor, exposure_planes
     from spikeref.simulate.camera import mosaic_radiance
     from spikeref.simulate.motion import plane_flow
@@ -207,12 +221,6 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
     offset = (centres[0] - w // 2) % w
     view = stream.slice(offset)
     ks = [(t - w // 2 - offset) // w for t in centres]
-
-    def psi(planes):
-        return demosaic_bilinear(bayer_mosaic(np.asarray(planes, dtype=np.float32), cfa), cfa)
-
-    def mosaic_of(rgb):  # the noise-free Bayer mosaic of ground-truth frames (Eq. 3)
-        return mosaic_radiance(rgb, cfa).astype(np.float32)
 
     out = {r: [] for r in rungs}
     secs = {r: [] for r in rungs}
@@ -234,18 +242,18 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
         m0 = method_planes[reach] / np.float32(w)
         more = {"accumulate": acc} if acc == "charge" else {}
         if "tfp" in rungs:
-            out["tfp"].append(psi(i0))
+            out["tfp"].append(psi(i0, cfa))
         for name, peer in peers.items():
             if name in rungs:
                 t0 = time.perf_counter()
-                out[name].append(psi(peer(i0, window=w)))
+                out[name].append(psi(peer(i0, window=w), cfa))
                 secs[name].append(time.perf_counter() - t0)
         if "net" in rungs:
             t0 = time.perf_counter()
-            out["net"].append(psi(denoiser(m0, "visible", window=w, **more)))
+            out["net"].append(psi(denoiser(m0, "visible", window=w, **more), cfa))
             secs["net"].append(time.perf_counter() - t0)
         if "tfp_support" in rungs:
-            out["tfp_support"].append(psi(planes.sum(axis=0) / np.float32(w * len(planes))))
+            out["tfp_support"].append(psi(planes.sum(axis=0) / np.float32(w * len(planes)), cfa))
         if any(r in rungs for r in TRUE_FLOW_RUNGS):
             if not has_motion:
                 for r in TRUE_FLOW_RUNGS:
@@ -256,23 +264,24 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                 if "true_flow_clean" in rungs:
                     clean = clean_window_counts(sc.scene, cfa, w, start, 2 * reach + 1)
                     out["true_flow_clean"].append(psi(true_flow_frame(clean, sc.scene.content, w, start, reach,
-                                                                      weights)))
-                if any(r in rungs for r in ("true_flow", "true_flow_d", "true_flow_bm3d")):
+                                                                      weights), cfa))
+                if any(r in rungs for r in TRUE_FLOW_RUNGS if r != "true_flow_clean"):
                     tf = true_flow_frame(method_planes, sc.scene.content, w, start, reach, weights)
                 if "true_flow_bm3d" in rungs:
-                    out["true_flow_bm3d"].append(psi(peers["bm3d"](tf, window=exposure_planes(w, K, L))))
+                    out["true_flow_bm3d"].append(psi(peers["bm3d"](tf, window=exposure_planes(w, K, L)), cfa))
                 if "true_flow" in rungs:
-                    out["true_flow"].append(psi(tf))
+                    out["true_flow"].append(psi(tf, cfa))
                 if "true_flow_d" in rungs:
                     if acc == "charge" and L > 0:  # the output guard's noise from the reference window, as the pipeline
                         more_d = {**more, "short": m0, "short_window": w}
                     else:
                         more_d = more
-                    out["true_flow_d"].append(psi(denoiser(tf, "visible", window=exposure_planes(w, K, L), **more_d)))
+                    d_tf = denoiser(tf, "visible", window=exposure_planes(w, K, L), **more_d)
+                    out["true_flow_d"].append(psi(d_tf, cfa))
         if "limit" in rungs or "limit_mhc" in rungs:
             from spikeref.demosaic import demosaic_mhc
 
-            mosaic = mosaic_of(truth)
+            mosaic = mosaic_radiance(truth, cfa).astype(np.float32)  # the noise-free Bayer mosaic (Eq. 3)
             if "limit" in rungs:
                 out["limit"].append(demosaic_bilinear(mosaic, cfa))
             if "limit_mhc" in rungs:
