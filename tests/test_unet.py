@@ -33,7 +33,7 @@ def test_the_paper_counts_25_convolutions():
 @given(n=st.integers(1, 2), cin=st.integers(1, 5), cout=st.integers(1, 9), h=st.integers(1, 9),
        w=st.integers(1, 9), slope=st.sampled_from([None, 0.0, 0.1]), seed=st.integers(0, 2**16))
 def test_conv_direct_im2col_and_plain_equal_the_oracle(n, cin, cout, h, w, slope, seed):
-    # cout up to 9: the direct kernel works in groups of four output channels, the last one partial.
+    # cout up to 9 and h up to 9: the direct kernel works on two output channels of two rows, the last ones alone.
     rng = np.random.default_rng(seed)
     x = rng.standard_normal((n, cin, h, w)).astype(np.float32)
     wt = rng.standard_normal((cout, cin, 3, 3)).astype(np.float32)

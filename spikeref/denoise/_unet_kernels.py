@@ -1,6 +1,6 @@
 """The U-Net's Numba kernels (:mod:`spikeref.denoise.unet` reads like the network; the speed is here).
 
-The direct 3×3 convolution (one parallel job per output row and group of four output channels, the
+The direct 3×3 convolution (one parallel job per two output rows of two output channels, the
 nine taps of each input channel summed as one expression over rows held in the L1 cache; fused
 multiply-adds only, no reassociation, so the result does not depend on the thread count), 2×2
 max-pooling and the nearest upsampling (the skip half of each concatenation is read in place by the
@@ -21,9 +21,8 @@ import numpy as np
 from spikeref._jit import njit, prange
 
 __all__ = [
-    "buffers", "padded_empty", "release_buffers", "conv3x3_direct", "four_channel_row", "maxpool_into", "nine_taps",
-    "one_channel_row", "split_job",
-    "store_row", "upsample_into",
+    "buffers", "padded_empty", "release_buffers", "conv3x3_direct", "maxpool_into", "nine_taps", "one_channel_two_rows",
+    "split_job", "store_row", "two_channel_two_rows", "upsample_into",
 ]
 
 
@@ -45,8 +44,10 @@ def nine_taps(k, u0, u1, u2, v0, v1, v2, s0, s1, s2):
 
 
 @njit(fastmath={"contract"}, inline="always")
-def four_channel_row(r0, r1, r2, wa, wb, wc, wd, a, b, c, d, cols):
-    # a, b, c, d[x] += the 3×3 kernels wa … wd on input rows r0, r1, r2 (above, at and below) at x
+def two_channel_two_rows(r0, r1, r2, r3, wa, wb, a0, b0, a1, b1, cols):
+    # a0, b0[x] += the 3×3 kernels wa, wb on input rows r0, r1, r2 at x (output row y), and a1, b1[x] on
+    # r1, r2, r3 (output row y + 1): 18 weights stay in registers, each input value is loaded once for
+    # 36 multiply-adds (four channels of one row needed 36 weights, 17 of them reloaded from the stack)
     for x in range(cols):
         u0 = r0[x]
         u1 = r0[x + 1]
@@ -57,17 +58,21 @@ def four_channel_row(r0, r1, r2, wa, wb, wc, wd, a, b, c, d, cols):
         s0 = r2[x]
         s1 = r2[x + 1]
         s2 = r2[x + 2]
-        a[x] += nine_taps(wa, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-        b[x] += nine_taps(wb, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-        c[x] += nine_taps(wc, u0, u1, u2, v0, v1, v2, s0, s1, s2)
-        d[x] += nine_taps(wd, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+        t0 = r3[x]
+        t1 = r3[x + 1]
+        t2 = r3[x + 2]
+        a0[x] += nine_taps(wa, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+        b0[x] += nine_taps(wb, u0, u1, u2, v0, v1, v2, s0, s1, s2)
+        a1[x] += nine_taps(wa, v0, v1, v2, s0, s1, s2, t0, t1, t2)
+        b1[x] += nine_taps(wb, v0, v1, v2, s0, s1, s2, t0, t1, t2)
 
 
 @njit(fastmath={"contract"}, inline="always")
-def one_channel_row(r0, r1, r2, wa, a, cols):
-    # a[x] += the 3×3 kernel wa on input rows r0, r1, r2 at x
+def one_channel_two_rows(r0, r1, r2, r3, wa, a0, a1, cols):
+    # a0[x] += the 3×3 kernel wa on input rows r0, r1, r2 at x, and a1[x] on r1, r2, r3
     for x in range(cols):
-        a[x] += nine_taps(wa, r0[x], r0[x + 1], r0[x + 2], r1[x], r1[x + 1], r1[x + 2], r2[x], r2[x + 1], r2[x + 2])
+        a0[x] += nine_taps(wa, r0[x], r0[x + 1], r0[x + 2], r1[x], r1[x + 1], r1[x + 2], r2[x], r2[x + 1], r2[x + 2])
+        a1[x] += nine_taps(wa, r1[x], r1[x + 1], r1[x + 2], r2[x], r2[x + 1], r2[x + 2], r3[x], r3[x + 1], r3[x + 2])
 
 
 @njit
@@ -88,53 +93,49 @@ def conv3x3_direct(xp, xq, weight, bias, slope, act, rows, cols, out):
     # out: (n, cout, h + 2, w + 2) float32 -- the interior's first `rows` rows and `cols` columns
     # are written, the rest of the interior and the border are left to the caller (an output that
     # only its first rows and columns are wanted of needs only those of each layer before it, one
-    # more per layer).  One job = one output row of four output channels (a last group of one
-    # channel computes it once; of two or three, the clamped repeats too).  fastmath "contract"
-    # allows only the fusion of a product and a sum into one FMA; no reassociation, so every value
-    # is summed in the same order whatever rows, cols and the thread count are.
+    # more per layer).  One job = two output rows of two output channels (a last channel alone is
+    # computed once; a last row alone computes a throw-away second row that is not stored).  fastmath
+    # "contract" allows only the fusion of a product and a sum into one FMA; no reassociation, so every
+    # value is summed in the same order whatever rows, cols and the thread count are.
     n, cp, hp, wp = xp.shape
     cq = xq.shape[1]
     cout = weight.shape[0]
-    groups = (cout + 3) // 4
-    for job in prange(n * groups * rows):
-        i, g, y = split_job(job, groups, rows)
-        o0 = 4 * g
-        o1 = min(o0 + 1, cout - 1)
-        o2 = min(o0 + 2, cout - 1)
-        o3 = min(o0 + 3, cout - 1)
-        lone = o0 + 1 == cout  # a last group of one channel (the tail's single output)
+    groups = (cout + 1) // 2
+    pairs = (rows + 1) // 2
+    for job in prange(n * groups * pairs):
+        i, g, p = split_job(job, groups, pairs)
+        y = 2 * p
+        second = y + 1 < rows  # row y + 1 is wanted (else a row of rows y + 1, y + 2, y + 2 is computed, not stored)
+        below = y + 3 if second else y + 2
+        o0 = 2 * g
+        o1 = o0 + 1
+        lone = o1 == cout  # a last output channel alone (the tail's single output)
         # Fresh rows, so LLVM knows they alias neither each other nor the input (the four rows of one
         # (4, cols) allocation instead: 8x slower, 165 ms a 250x400 pass against 16-20, 2026-11-25).
-        rest = 0 if lone else cols  # a lone channel needs no b, c, d
-        a = np.empty(cols, dtype=np.float32)
-        b = np.empty(rest, dtype=np.float32)
-        c = np.empty(rest, dtype=np.float32)
-        d = np.empty(rest, dtype=np.float32)
-        a[:] = bias[o0]
-        b[:] = bias[o1]
-        c[:] = bias[o2]
-        d[:] = bias[o3]
+        rest = 0 if lone else cols  # a lone channel needs no b0, b1
+        a0 = np.empty(cols, dtype=np.float32)
+        a1 = np.empty(cols, dtype=np.float32)
+        b0 = np.empty(rest, dtype=np.float32)
+        b1 = np.empty(rest, dtype=np.float32)
+        a0[:] = bias[o0]
+        a1[:] = bias[o0]
+        if not lone:
+            b0[:] = bias[o1]
+            b1[:] = bias[o1]
         for ci in range(cp + cq):  # xp's channels, then xq's
-            if ci < cp:
-                r0 = xp[i, ci, y]
-                r1 = xp[i, ci, y + 1]
-                r2 = xp[i, ci, y + 2]
-            else:
-                r0 = xq[i, ci - cp, y]
-                r1 = xq[i, ci - cp, y + 1]
-                r2 = xq[i, ci - cp, y + 2]
+            src = xp[i, ci] if ci < cp else xq[i, ci - cp]
             if lone:
-                one_channel_row(r0, r1, r2, weight[o0, ci], a, cols)
+                one_channel_two_rows(src[y], src[y + 1], src[y + 2], src[below], weight[o0, ci], a0, a1, cols)
             else:
-                four_channel_row(r0, r1, r2, weight[o0, ci], weight[o1, ci], weight[o2, ci], weight[o3, ci],
-                                 a, b, c, d, cols)
-        store_row(a, out[i, o0, y + 1], slope, act)
-        if o0 + 1 < cout:  # the clamped repeats of the last channel are not stored
-            store_row(b, out[i, o1, y + 1], slope, act)
-        if o0 + 2 < cout:
-            store_row(c, out[i, o2, y + 1], slope, act)
-        if o0 + 3 < cout:
-            store_row(d, out[i, o3, y + 1], slope, act)
+                two_channel_two_rows(src[y], src[y + 1], src[y + 2], src[below], weight[o0, ci], weight[o1, ci],
+                                     a0, b0, a1, b1, cols)
+        store_row(a0, out[i, o0, y + 1], slope, act)
+        if not lone:
+            store_row(b0, out[i, o1, y + 1], slope, act)
+        if second:
+            store_row(a1, out[i, o0, y + 2], slope, act)
+            if not lone:
+                store_row(b1, out[i, o1, y + 2], slope, act)
 
 
 @njit(parallel=True)
