@@ -8,7 +8,8 @@ turn and ``--rounds`` times, a fresh process of each revision that opens the fil
 ``spikeref.read_dat`` and reconstructs ``--frames`` frames with that revision's own defaults
 (``spikeref.reconstruct``'s ``ReconstructParams()`` and its bundled network) at W/K/L = 10/3/3; with
 ``--preset paper``, the paper's procedure as ``benchmarks/test_speed_pipeline.py`` times it
-(``ReconstructParams.paper()`` and the bundled network with ``guard="off"``), and ``--preset fast`` the fast
+(``ReconstructParams.paper()`` and the bundled network alone as the paper's ``D``: ``guard="off"``,
+``shrink=False``, since 2026-11-25; before, the residual shrinkage ran too), and ``--preset fast`` the fast
 preset.  The first frame of each process is left out of the timing (it compiles or loads the kernels).  Prints
 frames/s per round and the ratio of the medians, and the time a frame spends outside the U-Net's passes
 (``Reconstructor.profile()``), which does not move with the network's speed from one process to the next.
@@ -40,8 +41,9 @@ if preset == "default":
 else:
     from spikeref.denoise.denoiser import Denoiser, bundled_weights
     params = getattr(ReconstructParams, preset)(window=10, K=3, L=3)
-    guard = "off" if preset == "paper" else "sure"
-    rec = Reconstructor(stream, params, Denoiser.load(bundled_weights(params.accumulate), guard=guard))
+    paper = preset == "paper"  # the paper's D: the network alone, no guard and no residual shrinkage
+    den = Denoiser.load(bundled_weights(params.accumulate), guard="off" if paper else "sure", shrink=not paper)
+    rec = Reconstructor(stream, params, den)
 a = rec.frames_available.start
 n = int(sys.argv[4])
 it = iter(rec.frames(a, a + n + 1))

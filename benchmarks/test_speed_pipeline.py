@@ -55,10 +55,10 @@ def _run(stream, params, den, n_frames):
 def _config(name):
     """``(params, denoiser)`` of a named configuration (the same width-16 network in both)."""
     net = UNet.random(UNetSpec(width=16), seed=0)
-    if name == "paper":  # Fig. 3(b) as the paper: progressive warps, flows on D(I_l), no guard (shrinkage on)
-        return ReconstructParams.paper(), Denoiser(net, guard="off")
+    if name == "paper":  # Fig. 3(b) as the paper: progressive warps, flows on D(I_l), D the network alone
+        return ReconstructParams.paper(), Denoiser(net, guard="off", shrink=False)
     if name == "paper-smoothed":
-        return ReconstructParams.paper(flow_frames="smoothed"), Denoiser(net, guard="off")
+        return ReconstructParams.paper(flow_frames="smoothed"), Denoiser(net, guard="off", shrink=False)
     if name == "fast":  # the fast preset: the defaults with only the step-0 flows, composed
         return ReconstructParams.fast(), Denoiser(net)
     if name == "fastest":  # the fast preset without a denoiser: no network pass

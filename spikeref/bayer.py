@@ -176,27 +176,79 @@ def reflect_index(i, n):
     return i
 
 
+@njit(inline="always")
+def _edge_pixel(mosaics, img, y, x, c, channel_of_plane, kern):
+    # channel c at (y, x), every tap reflected into the image and tested for its colour
+    h, w = mosaics.shape[1], mosaics.shape[2]
+    num = 0.0
+    den = 0.0
+    for dy in range(-1, 2):
+        yy = reflect_index(y + dy, h)
+        for dx in range(-1, 2):
+            xx = reflect_index(x + dx, w)
+            if channel_of_plane[(yy % 2) * 2 + (xx % 2)] == c:
+                wgt = kern[dy + 1, dx + 1]
+                num += wgt * mosaics[img, yy, xx]
+                den += wgt
+    return num / den
+
+
 @njit(parallel=True)
-def _demosaic_bilinear(mosaics, channel_of_plane, g_kernel, rb_kernel, out):
-    # mosaics (N, H, W) float; out (N, H, W, 3) float; channel_of_plane (4,)
+def _demosaic_bilinear(mosaics, channel_of_plane, g_kernel, rb_kernel, weight, use, den, zero, out):
+    # mosaics (N, H, W) float; out (N, H, W, 3) float; channel_of_plane (4,).  The first and last row and
+    # column: _edge_pixel.  Inside them, row y's channel c sums the taps t = 3 (dy + 1) + dx + 1 in that
+    # order, tap t at column x weighted weight[y % 2, c, t, x] where use[y % 2, c, t, x] (the tap has colour
+    # c) and adding `zero` (+0 of the mosaics' dtype) where not, over den[y % 2, c, x]: _edge_pixel's sums
+    # in its order (a float64 sum that starts at +0.0 is never -0.0, so adding +0.0 leaves it as it was),
+    # a row at a time so that LLVM vectorises over x
     n, h, w = mosaics.shape
     for k in prange(n * h):
         img = k // h
         y = k % h
-        for x in range(w):
+        if y == 0 or y == h - 1 or w < 3:
+            for x in range(w):
+                for c in range(3):
+                    out[img, y, x, c] = _edge_pixel(mosaics, img, y, x, c, channel_of_plane,
+                                                    g_kernel if c == 1 else rb_kernel)
+            continue
+        for x in (0, w - 1):
+            for c in range(3):
+                out[img, y, x, c] = _edge_pixel(mosaics, img, y, x, c, channel_of_plane,
+                                                g_kernel if c == 1 else rb_kernel)
+        py = y % 2
+        num = np.empty(w)
+        for c in range(3):
+            num[:] = 0.0
+            for t in range(9):
+                src = mosaics[img, y + t // 3 - 1]
+                dx = t % 3 - 1
+                wt = weight[py, c, t]
+                on = use[py, c, t]
+                for x in range(1, w - 1):
+                    num[x] += wt[x] * (src[x + dx] if on[x] else zero)
+            d = den[py, c]
+            for x in range(1, w - 1):
+                out[img, y, x, c] = num[x] / d[x]
+
+
+def _interior_taps(channels: np.ndarray, g_kernel: np.ndarray, rb_kernel: np.ndarray, width: int):
+    """The rows of tap weights, colour tests and weight sums of :func:`_demosaic_bilinear` for each row parity."""
+    weight = np.zeros((2, 3, 9, width), dtype=g_kernel.dtype)
+    use = np.zeros((2, 3, 9, width), dtype=np.bool_)
+    den = np.ones((2, 3, width), dtype=np.float64)
+    for py in range(2):
+        for px in range(2):
             for c in range(3):
                 kern = g_kernel if c == 1 else rb_kernel
-                num = 0.0
-                den = 0.0
+                total = 0.0
                 for dy in range(-1, 2):
-                    yy = reflect_index(y + dy, h)
                     for dx in range(-1, 2):
-                        xx = reflect_index(x + dx, w)
-                        if channel_of_plane[(yy % 2) * 2 + (xx % 2)] == c:
-                            wgt = kern[dy + 1, dx + 1]
-                            num += wgt * mosaics[img, yy, xx]
-                            den += wgt
-                out[img, y, x, c] = num / den
+                        if channels[((py + dy) % 2) * 2 + (px + dx) % 2] == c:
+                            weight[py, c, 3 * (dy + 1) + dx + 1, px::2] = kern[dy + 1, dx + 1]
+                            use[py, c, 3 * (dy + 1) + dx + 1, px::2] = True
+                            total += float(kern[dy + 1, dx + 1])  # in float64, as _edge_pixel sums
+                den[py, c, px::2] = total
+    return weight, use, den
 
 
 def demosaic_bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
@@ -230,5 +282,7 @@ def demosaic_bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     h, w = mosaic.shape[-2:]
     flat = np.ascontiguousarray(mosaic.reshape((-1, h, w)), dtype=dtype)
     out = np.empty(flat.shape + (3,), dtype=dtype)
-    _demosaic_bilinear(flat, channels, G_KERNEL.astype(dtype), RB_KERNEL.astype(dtype), out)
+    g_kernel, rb_kernel = G_KERNEL.astype(dtype), RB_KERNEL.astype(dtype)
+    _demosaic_bilinear(flat, channels, g_kernel, rb_kernel, *_interior_taps(channels, g_kernel, rb_kernel, w),
+                       np.dtype(dtype).type(0), out)
     return out.reshape(lead + (h, w, 3))
