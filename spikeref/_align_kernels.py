@@ -465,14 +465,24 @@ def dense_flow(vectors, tile, out):
     h, w = out.shape[1], out.shape[2]
     stride = tile // 2
     c0 = 0.5 * (tile - 1)
+    cols0 = np.empty(w, np.int64)  # each column's interpolation, once for every row
+    cols1 = np.empty(w, np.int64)
+    fxs = np.empty(w)
+    for x in range(w):
+        cols0[x], cols1[x], fxs[x] = interp_index(x, c0, stride, tx)
     for y in prange(h):
         i0, i1, fy = interp_index(y, c0, stride, ty)
-        for x in range(w):
-            j0, j1, fx = interp_index(x, c0, stride, tx)
-            for c in range(2):
-                top = (1.0 - fx) * np.float64(vectors[i0, j0, c]) + fx * np.float64(vectors[i0, j1, c])
-                bottom = (1.0 - fx) * np.float64(vectors[i1, j0, c]) + fx * np.float64(vectors[i1, j1, c])
-                out[c, y, x] = (1.0 - fy) * top + fy * bottom
+        for c in range(2):
+            v00 = vectors[i0, :, c]
+            v10 = vectors[i1, :, c]
+            row = out[c, y]
+            for x in range(w):
+                j0 = cols0[x]
+                j1 = cols1[x]
+                fx = fxs[x]
+                top = (1.0 - fx) * np.float64(v00[j0]) + fx * np.float64(v00[j1])
+                bottom = (1.0 - fx) * np.float64(v10[j0]) + fx * np.float64(v10[j1])
+                row[x] = (1.0 - fy) * top + fy * bottom
 
 
 @njit(parallel=True)
