@@ -13,10 +13,11 @@ import numpy as np
 from spikeref._jit import njit, prange
 
 __all__ = [
-    "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "block_distances", "blur_decimate_kernel",
+    "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "block_distances", "block_distances_l1_l2", "blur_decimate_kernel",
+    "choose_offset", "fitted",
     "box_sums",
     "dense_flow", "fit_offset", "gradient", "integral_image", "interp_index", "jacobi_sweeps", "lucas_kanade",
-    "nearest_tiles", "search_tiles", "subpixel_fit", "tile_distance", "tile_sums_from_integral", "upsample_tiles",
+    "nearest_tiles", "search_fit_tiles", "search_tiles", "subpixel_fit", "tile_distance", "tile_sums_from_integral", "upsample_tiles",
     "window_distances",
     "zero_test_terms",
 ]
@@ -113,6 +114,70 @@ def block_distances(ref, alt, oy, ox, tile, qy, qx, l2, d, i0, j0):
 
 
 @njit(inline="always")
+def block_distances_l1_l2(ref, alt, oy, ox, tile, qy, qx, d1, d2):
+    """:func:`block_distances` with L1 into ``d1`` and L2 into ``d2`` (``(3, 3)`` each), from one read of the samples."""
+    h, w = alt.shape
+    if oy + qy - 1 < 0 or oy + qy + 1 + tile > h or ox + qx - 1 < 0 or ox + qx + 1 + tile > w:
+        block_distances(ref, alt, oy, ox, tile, qy, qx, False, d1, 0, 0)
+        block_distances(ref, alt, oy, ox, tile, qy, qx, True, d2, 0, 0)
+        return
+    s00 = s01 = s02 = s10 = s11 = s12 = s20 = s21 = s22 = 0.0
+    q00 = q01 = q02 = q10 = q11 = q12 = q20 = q21 = q22 = 0.0
+    for y in range(oy, oy + tile):
+        r = ref[y, ox:ox + tile]
+        a0 = alt[y + qy - 1, ox + qx - 1:ox + qx + tile + 1]
+        a1 = alt[y + qy, ox + qx - 1:ox + qx + tile + 1]
+        a2 = alt[y + qy + 1, ox + qx - 1:ox + qx + tile + 1]
+        for x in range(tile):
+            rv = np.float64(r[x])
+            e = rv - np.float64(a0[x])
+            s00 += abs(e)
+            q00 += e * e
+            e = rv - np.float64(a0[x + 1])
+            s01 += abs(e)
+            q01 += e * e
+            e = rv - np.float64(a0[x + 2])
+            s02 += abs(e)
+            q02 += e * e
+            e = rv - np.float64(a1[x])
+            s10 += abs(e)
+            q10 += e * e
+            e = rv - np.float64(a1[x + 1])
+            s11 += abs(e)
+            q11 += e * e
+            e = rv - np.float64(a1[x + 2])
+            s12 += abs(e)
+            q12 += e * e
+            e = rv - np.float64(a2[x])
+            s20 += abs(e)
+            q20 += e * e
+            e = rv - np.float64(a2[x + 1])
+            s21 += abs(e)
+            q21 += e * e
+            e = rv - np.float64(a2[x + 2])
+            s22 += abs(e)
+            q22 += e * e
+    d1[0, 0] = s00
+    d1[0, 1] = s01
+    d1[0, 2] = s02
+    d1[1, 0] = s10
+    d1[1, 1] = s11
+    d1[1, 2] = s12
+    d1[2, 0] = s20
+    d1[2, 1] = s21
+    d1[2, 2] = s22
+    d2[0, 0] = q00
+    d2[0, 1] = q01
+    d2[0, 2] = q02
+    d2[1, 0] = q10
+    d2[1, 1] = q11
+    d2[1, 2] = q12
+    d2[2, 0] = q20
+    d2[2, 1] = q21
+    d2[2, 2] = q22
+
+
+@njit(inline="always")
 def window_distances(ref, alt, oy, ox, tile, cy, cx, radius, l2, d):
     """``d[dy + radius, dx + radius]`` = :func:`tile_distance` at ``(cy + dy, cx + dx)`` for ``|dy|, |dx| ≤ radius``.
 
@@ -150,34 +215,70 @@ def search_tiles(ref, alt, tile, centre, radius, l2, bias, thresh, out):
         cx = centre[i, j, 1]
         d = np.empty((2 * radius + 1, 2 * radius + 1))
         window_distances(ref, alt, oy, ox, tile, cy, cx, radius, l2, d)
-        best = np.inf
-        by = 0
-        bx = 0
-        bn = 0
-        at_centre = np.inf
-        for dy in range(-radius, radius + 1):
-            for dx in range(-radius, radius + 1):
-                dist = d[dy + radius, dx + radius]
-                if cy + dy == 0 and cx + dx == 0:
-                    dist -= bias[i, j]
-                n2 = dy * dy + dx * dx
-                if n2 == 0:
-                    at_centre = dist
-                if dist < best or (dist == best and n2 < bn):
-                    best = dist
-                    by = dy
-                    bx = dx
-                    bn = n2
-        if thresh[i, j] >= 0.0:
-            at_zero = tile_distance(ref, alt, oy, ox, tile, 0, 0, l2) - bias[i, j]
-            if at_zero - best <= thresh[i, j]:  # zero motion first …
-                by = -cy
-                bx = -cx
-            elif at_centre - best <= thresh[i, j]:  # … then the search centre
-                by = 0
-                bx = 0
+        by, bx = choose_offset(ref, alt, oy, ox, tile, cy, cx, radius, l2, d, bias[i, j], thresh[i, j])
         out[i, j, 0] = cy + by
         out[i, j, 1] = cx + bx
+
+
+@njit(inline="always")
+def choose_offset(ref, alt, oy, ox, tile, cy, cx, radius, l2, d, bias, thresh):
+    """The offset ``(by, bx)`` from the centre that :func:`search_tiles` picks, given the distances ``d``.
+
+    The smallest distance (the zero vector's lowered by ``bias``), the shorter offset on a tie; with
+    ``thresh ≥ 0`` the zero vector, else the centre, unless the best is lower by more than ``thresh``.
+    """
+    best = np.inf
+    by = 0
+    bx = 0
+    bn = 0
+    at_centre = np.inf
+    for dy in range(-radius, radius + 1):
+        for dx in range(-radius, radius + 1):
+            dist = d[dy + radius, dx + radius]
+            if cy + dy == 0 and cx + dx == 0:
+                dist -= bias
+            n2 = dy * dy + dx * dx
+            if n2 == 0:
+                at_centre = dist
+            if dist < best or (dist == best and n2 < bn):
+                best = dist
+                by = dy
+                bx = dx
+                bn = n2
+    if thresh >= 0.0:
+        at_zero = tile_distance(ref, alt, oy, ox, tile, 0, 0, l2) - bias
+        if at_zero - best <= thresh:  # zero motion first …
+            return -cy, -cx
+        if at_centre - best <= thresh:  # … then the search centre
+            return 0, 0
+    return by, bx
+
+
+@njit(parallel=True)
+def search_fit_tiles(ref, alt, tile, centre, bias, thresh, vectors, out):
+    """The finest level of the paper's alignment in one pass: :func:`search_tiles` with radius 1 and L1
+    distances into ``vectors``, then :func:`subpixel_fit`'s L2 fit into ``out`` (the same values as the
+    two kernels).  The nine L2 distances around the centre are summed beside the nine L1 ones (from the
+    same samples, each in its own order) and serve the fit where the search keeps the centre.
+    """
+    ny, nx = centre.shape[0], centre.shape[1]
+    stride = tile // 2
+    for t in prange(ny * nx):
+        i = t // nx
+        j = t % nx
+        oy = i * stride
+        ox = j * stride
+        cy = centre[i, j, 0]
+        cx = centre[i, j, 1]
+        d1 = np.empty((3, 3))
+        d2 = np.empty((3, 3))
+        block_distances_l1_l2(ref, alt, oy, ox, tile, cy, cx, d1, d2)
+        by, bx = choose_offset(ref, alt, oy, ox, tile, cy, cx, 1, False, d1, bias[i, j], thresh[i, j])
+        if by != 0 or bx != 0:
+            block_distances(ref, alt, oy, ox, tile, cy + by, cx + bx, True, d2, 0, 0)
+        vectors[i, j, 0] = cy + by
+        vectors[i, j, 1] = cx + bx
+        out[i, j, 0], out[i, j, 1] = fitted(d2, cy + by, cx + bx)
 
 
 @njit(inline="always")
@@ -278,16 +379,20 @@ def subpixel_fit(ref, alt, tile, best, out):
         ox = j * stride
         by = best[i, j, 0]
         bx = best[i, j, 1]
-        out[i, j, 0] = by
-        out[i, j, 1] = bx
         d = np.empty((3, 3))
         block_distances(ref, alt, oy, ox, tile, by, bx, True, d, 0, 0)
-        if d[1, 1] == 0.0:
-            continue
-        u_y, u_x, ok = fit_offset(d)
-        if ok:
-            out[i, j, 0] = by + u_y
-            out[i, j, 1] = bx + u_x
+        out[i, j, 0], out[i, j, 1] = fitted(d, by, bx)
+
+
+@njit(inline="always")
+def fitted(d, by, bx):
+    """The integer vector ``(by, bx)`` plus the quadratic fit's offset on its L2 distances ``d``, where accepted."""
+    if d[1, 1] == 0.0:
+        return np.float64(by), np.float64(bx)
+    u_y, u_x, ok = fit_offset(d)
+    if ok:
+        return by + u_y, bx + u_x
+    return np.float64(by), np.float64(bx)
 
 
 @njit
