@@ -13,12 +13,10 @@ import numpy as np
 from spikeref._jit import njit, prange
 
 __all__ = [
-    "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "block_distances", "block_distances_l1_l2", "blur_decimate_kernel",
-    "choose_offset", "fitted",
-    "box_sums",
-    "dense_flow", "fit_offset", "gradient", "integral_image", "interp_index", "jacobi_sweeps", "lucas_kanade",
-    "nearest_tiles", "search_fit_tiles", "search_tiles", "subpixel_fit", "tile_distance", "tile_sums_from_integral", "upsample_tiles",
-    "window_distances",
+    "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "block_distances", "block_distances_l1_l2",
+    "blur_decimate_kernel", "box_sums", "choose_offset", "dense_flow", "fit_offset", "fitted", "gradient",
+    "integral_image", "interp_index", "jacobi_sweeps", "lucas_kanade", "nearest_tiles", "search_fit_tiles",
+    "search_tiles", "subpixel_fit", "tile_distance", "tile_sums_from_integral", "upsample_tiles", "window_distances",
     "zero_test_terms",
 ]
 
@@ -115,7 +113,7 @@ def block_distances(ref, alt, oy, ox, tile, qy, qx, l2, d, i0, j0):
 
 @njit(inline="always")
 def block_distances_l1_l2(ref, alt, oy, ox, tile, qy, qx, d1, d2):
-    """:func:`block_distances` with L1 into ``d1`` and L2 into ``d2`` (``(3, 3)`` each), from one read of the samples."""
+    """:func:`block_distances` with L1 into ``d1`` and L2 into ``d2`` (``(3, 3)`` each) from one read of the samples."""
     h, w = alt.shape
     if oy + qy - 1 < 0 or oy + qy + 1 + tile > h or ox + qx - 1 < 0 or ox + qx + 1 + tile > w:
         block_distances(ref, alt, oy, ox, tile, qy, qx, False, d1, 0, 0)
