@@ -16,7 +16,8 @@ __all__ = [
     "PYRAMID_KERNEL", "PD_TOLERANCE", "SLACK", "bilinear3", "bilinear_cell", "block_distances", "block_distances_l1_l2",
     "blur_decimate_kernel", "box_sums", "choose_offset", "dense_flow", "fit_offset", "fitted", "gradient",
     "integral_image", "interp_index", "jacobi_sweeps", "lucas_kanade", "nearest_tiles", "search_fit_tiles",
-    "search_tiles", "subpixel_fit", "tile_distance", "tile_sums_from_integral", "upsample_tiles", "window_distances",
+    "search_tiles", "subpixel_fit", "three_distances", "tile_distance", "tile_sums_from_integral", "upsample_tiles",
+    "window_distances",
     "zero_test_terms",
 ]
 
@@ -291,6 +292,36 @@ def nearest_tiles(c, coarse_tile, count):
     return m, n
 
 
+@njit(inline="always")
+def three_distances(ref, alt, oy, ox, tile, cand, out):
+    """``out[k]`` = :func:`tile_distance` (L1) at the offset ``cand[k]``, ``k = 0, 1, 2``: the three sums side by
+    side, each in :func:`tile_distance`'s order, where all three shifted tiles lie inside the image."""
+    h, w = alt.shape
+    inside = True
+    for k in range(3):
+        qy = oy + cand[k, 0]
+        qx = ox + cand[k, 1]
+        inside = inside and qy >= 0 and qy + tile <= h and qx >= 0 and qx + tile <= w
+    if not inside:
+        for k in range(3):
+            out[k] = tile_distance(ref, alt, oy, ox, tile, cand[k, 0], cand[k, 1], False)
+        return
+    s0 = s1 = s2 = 0.0
+    for y in range(oy, oy + tile):
+        r = ref[y, ox:ox + tile]
+        a0 = alt[y + cand[0, 0], ox + cand[0, 1]:ox + cand[0, 1] + tile]
+        a1 = alt[y + cand[1, 0], ox + cand[1, 1]:ox + cand[1, 1] + tile]
+        a2 = alt[y + cand[2, 0], ox + cand[2, 1]:ox + cand[2, 1] + tile]
+        for x in range(tile):
+            rv = np.float64(r[x])
+            s0 += abs(rv - np.float64(a0[x]))
+            s1 += abs(rv - np.float64(a1[x]))
+            s2 += abs(rv - np.float64(a2[x]))
+    out[0] = s0
+    out[1] = s1
+    out[2] = s2
+
+
 @njit(parallel=True)
 def upsample_tiles(ref, alt, tile, coarse, coarse_tile, bias, out):
     """3-candidate upsampling: ``out (ny, nx, 2)`` = the best of 3 doubled coarse vectors (L1 at this level).
@@ -307,19 +338,19 @@ def upsample_tiles(ref, alt, tile, coarse, coarse_tile, bias, out):
         ox = j * stride
         ay, by_ = nearest_tiles(oy + 0.5 * (tile - 1), coarse_tile, my)
         ax, bx_ = nearest_tiles(ox + 0.5 * (tile - 1), coarse_tile, mx)
+        cand = np.empty((3, 2), np.int64)
+        dists = np.empty(3)
+        cand[0, 0], cand[0, 1] = 2 * coarse[ay, ax, 0], 2 * coarse[ay, ax, 1]
+        cand[1, 0], cand[1, 1] = 2 * coarse[ay, bx_, 0], 2 * coarse[ay, bx_, 1]
+        cand[2, 0], cand[2, 1] = 2 * coarse[by_, ax, 0], 2 * coarse[by_, ax, 1]
+        three_distances(ref, alt, oy, ox, tile, cand, dists)
         best = np.inf
         vy = 0
         vx = 0
         for k in range(3):
-            if k == 0:
-                cy, cx = ay, ax
-            elif k == 1:
-                cy, cx = ay, bx_
-            else:
-                cy, cx = by_, ax
-            uy = 2 * coarse[cy, cx, 0]
-            ux = 2 * coarse[cy, cx, 1]
-            dist = tile_distance(ref, alt, oy, ox, tile, uy, ux, False)
+            uy = cand[k, 0]
+            ux = cand[k, 1]
+            dist = dists[k]
             if uy == 0 and ux == 0:
                 dist -= bias[i, j]
             if dist < best:
