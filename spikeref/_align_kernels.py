@@ -75,32 +75,49 @@ def block_distances(ref, alt, oy, ox, tile, qy, qx, l2, d, i0, j0):
 
     The nine sums run side by side, each adding the same terms in the same order as :func:`tile_distance`
     (so the same float64 values): nine independent chains where one offset at a time is a single chain.
-    A block with any of its nine shifted tiles partly outside the image calls :func:`tile_distance` for each
-    offset (which clamps only where it has to).
+    A block with any of its nine shifted tiles partly outside the image clamps every sample, as
+    :func:`tile_distance`'s clamped loop does (clamping changes no sample that lies inside).
     """
     h, w = alt.shape
-    if oy + qy - 1 < 0 or oy + qy + 1 + tile > h or ox + qx - 1 < 0 or ox + qx + 1 + tile > w:
-        for a in range(3):
-            for b in range(3):
-                d[i0 + a, j0 + b] = tile_distance(ref, alt, oy, ox, tile, qy + a - 1, qx + b - 1, l2)
-        return
     s00 = s01 = s02 = s10 = s11 = s12 = s20 = s21 = s22 = 0.0
-    for y in range(oy, oy + tile):
-        r = ref[y, ox:ox + tile]
-        a0 = alt[y + qy - 1, ox + qx - 1:ox + qx + tile + 1]
-        a1 = alt[y + qy, ox + qx - 1:ox + qx + tile + 1]
-        a2 = alt[y + qy + 1, ox + qx - 1:ox + qx + tile + 1]
-        for x in range(tile):  # LLVM takes the test of l2 out of the loop
-            rv = np.float64(r[x])
-            s00 += term(rv - np.float64(a0[x]), l2)
-            s01 += term(rv - np.float64(a0[x + 1]), l2)
-            s02 += term(rv - np.float64(a0[x + 2]), l2)
-            s10 += term(rv - np.float64(a1[x]), l2)
-            s11 += term(rv - np.float64(a1[x + 1]), l2)
-            s12 += term(rv - np.float64(a1[x + 2]), l2)
-            s20 += term(rv - np.float64(a2[x]), l2)
-            s21 += term(rv - np.float64(a2[x + 1]), l2)
-            s22 += term(rv - np.float64(a2[x + 2]), l2)
+    if oy + qy - 1 < 0 or oy + qy + 1 + tile > h or ox + qx - 1 < 0 or ox + qx + 1 + tile > w:
+        # some shifted tile is partly outside: every sample clamped (a no-op for the samples inside), as
+        # tile_distance's clamped loop, the nine sums still side by side
+        for y in range(oy, oy + tile):
+            a0 = alt[min(max(y + qy - 1, 0), h - 1)]
+            a1 = alt[min(max(y + qy, 0), h - 1)]
+            a2 = alt[min(max(y + qy + 1, 0), h - 1)]
+            for x in range(ox, ox + tile):
+                rv = np.float64(ref[y, x])
+                xa = min(max(x + qx - 1, 0), w - 1)
+                xb = min(max(x + qx, 0), w - 1)
+                xc = min(max(x + qx + 1, 0), w - 1)
+                s00 += term(rv - np.float64(a0[xa]), l2)
+                s01 += term(rv - np.float64(a0[xb]), l2)
+                s02 += term(rv - np.float64(a0[xc]), l2)
+                s10 += term(rv - np.float64(a1[xa]), l2)
+                s11 += term(rv - np.float64(a1[xb]), l2)
+                s12 += term(rv - np.float64(a1[xc]), l2)
+                s20 += term(rv - np.float64(a2[xa]), l2)
+                s21 += term(rv - np.float64(a2[xb]), l2)
+                s22 += term(rv - np.float64(a2[xc]), l2)
+    else:
+        for y in range(oy, oy + tile):
+            r = ref[y, ox:ox + tile]
+            a0 = alt[y + qy - 1, ox + qx - 1:ox + qx + tile + 1]
+            a1 = alt[y + qy, ox + qx - 1:ox + qx + tile + 1]
+            a2 = alt[y + qy + 1, ox + qx - 1:ox + qx + tile + 1]
+            for x in range(tile):  # LLVM takes the test of l2 out of the loop
+                rv = np.float64(r[x])
+                s00 += term(rv - np.float64(a0[x]), l2)
+                s01 += term(rv - np.float64(a0[x + 1]), l2)
+                s02 += term(rv - np.float64(a0[x + 2]), l2)
+                s10 += term(rv - np.float64(a1[x]), l2)
+                s11 += term(rv - np.float64(a1[x + 1]), l2)
+                s12 += term(rv - np.float64(a1[x + 2]), l2)
+                s20 += term(rv - np.float64(a2[x]), l2)
+                s21 += term(rv - np.float64(a2[x + 1]), l2)
+                s22 += term(rv - np.float64(a2[x + 2]), l2)
     d[i0, j0] = s00
     d[i0, j0 + 1] = s01
     d[i0, j0 + 2] = s02
