@@ -42,6 +42,7 @@ LAYERS = {
     "spikeref.align_params": 3,
     "spikeref.pyramid": 3,
     "spikeref.warp": 3,
+    "spikeref._warp_kernels": 3,
     "spikeref.compose": 3,
     "spikeref.demosaic": 3,
     "spikeref.simulate": 3,
