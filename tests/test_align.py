@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from spikeref._align_kernels import (
-    block_distances, fit_offset, gradient, lucas_kanade, nearest_tiles, tile_distance, window_distances,
+    block_distances, block_distances_l1_l2, search_fit_tiles, search_tiles, subpixel_fit, three_distances,
+    fit_offset, gradient, lucas_kanade, nearest_tiles, tile_distance, window_distances,
 )
 from spikeref._align_kernels import regularise
 from spikeref.align import AlignParams, align, align_tiles, flow_from_tiles, gaussian_pyramid, luma
@@ -790,6 +791,42 @@ def test_block_and_window_distances_are_tile_distance_to_the_bit(l2):
             want = [[tile_distance(ref, alt, oy, ox, tile, 1 + dy, -2 + dx, l2) for dx in range(-radius, radius + 1)]
                     for dy in range(-radius, radius + 1)]
             np.testing.assert_array_equal(d, want)
+
+
+def test_fused_distances_and_search_equal_their_parts_to_the_bit():
+    # The paper's finest level runs the radius-1 L1 search and the L2 quadratic fit in one kernel, and the
+    # upsampling sums its three candidates side by side: each must give what the separate kernels give,
+    # inside the image and at its edges (the first row and column of tiles are clamped blocks).
+    rng = np.random.default_rng(4)
+    ref = rng.random((30, 34))
+    alt = rng.random((30, 34))
+    for oy, ox, tile in [(8, 8, 8), (0, 0, 8), (22, 26, 8), (4, 10, 16)]:
+        for q in [(0, 0), (3, -2), (-oy, 0), (0, -ox), (30 - oy - tile - 1, 0), (0, 34 - ox - tile - 1), (9, 9)]:
+            d1, d2, w1, w2 = np.empty((4, 3, 3))
+            block_distances_l1_l2(ref, alt, oy, ox, tile, q[0], q[1], d1, d2)
+            block_distances(ref, alt, oy, ox, tile, q[0], q[1], False, w1, 0, 0)
+            block_distances(ref, alt, oy, ox, tile, q[0], q[1], True, w2, 0, 0)
+            np.testing.assert_array_equal(d1, w1)
+            np.testing.assert_array_equal(d2, w2)
+        for cand in [[(0, 0), (2, -2), (-1, 1)], [(-oy, 0), (0, 0), (0, 40)], [(-9, -9), (9, 9), (0, -ox)]]:
+            cand = np.asarray(cand, np.int64)
+            got = np.empty(3)
+            three_distances(ref, alt, oy, ox, tile, cand, got)
+            np.testing.assert_array_equal(got, [tile_distance(ref, alt, oy, ox, tile, c[0], c[1], False)
+                                                for c in cand])
+    for tile, noise_aware in [(8, False), (8, True), (16, True), (4, False)]:
+        grid = ((30 - tile) // (tile // 2) + 1, (34 - tile) // (tile // 2) + 1)
+        centre = rng.integers(-3, 4, grid + (2,))
+        bias = rng.random(grid) * 2 if noise_aware else np.zeros(grid)
+        thresh = rng.random(grid) * 3 if noise_aware else np.full(grid, -1.0)
+        vectors, want = np.empty(grid + (2,), np.int64), np.empty(grid + (2,), np.int64)
+        out, want_out = np.empty(grid + (2,), np.float32), np.empty(grid + (2,), np.float32)
+        search_fit_tiles(ref, alt, tile, centre, bias, thresh, vectors, out)
+        search_tiles(ref, alt, tile, centre, 1, False, bias, thresh, want)
+        subpixel_fit(ref, alt, tile, want, want_out)
+        np.testing.assert_array_equal(vectors, want)
+        np.testing.assert_array_equal(out, want_out)
+        assert np.any(vectors == centre) and np.any(out != vectors)  # the kept block and a fit both used
 
 
 def test_zero_motion_test_checks_its_arguments():
