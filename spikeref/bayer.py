@@ -180,8 +180,8 @@ def reflect_index(i, n):
 def _edge_pixel(mosaics, img, y, x, c, channel_of_plane, kern):
     # channel c at (y, x), every tap reflected into the image and tested for its colour
     h, w = mosaics.shape[1], mosaics.shape[2]
-    num = 0.0
-    den = 0.0
+    num = np.float64(0.0)  # float64 sums without Numba too (NumPy would keep float32 after a float32 term)
+    den = np.float64(0.0)
     for dy in range(-1, 2):
         yy = reflect_index(y + dy, h)
         for dx in range(-1, 2):
