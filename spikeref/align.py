@@ -128,7 +128,6 @@ def _tiles(ref, alt, step, params, noise0, rho) -> tuple[np.ndarray, int]:
     # noise-aware search off, bias = 0 and thresh = −1 (the kernels' "off"); on, they come from the noise pyramid.
     vectors = None  # integer vectors of the previous (coarser) level
     fused_fit = params.subpixel and params.refine != "lk" and params.search_radius[0] == 1
-    out = np.empty((_tile_count(ref.shape[0], tile), _tile_count(ref.shape[1], tile), 2), np.float32)
     for k in range(params.levels - 1, -1, -1):
         size = tile if k == 0 else params.coarse_tile
         r_img, a_img = ref64[k], alt64[k]
@@ -147,10 +146,12 @@ def _tiles(ref, alt, step, params, noise0, rho) -> tuple[np.ndarray, int]:
             upsample_tiles(r_img, a_img, size, vectors, params.coarse_tile, up_bias, centre)
         vectors = np.empty(grid + (2,), np.int64)
         if k == 0 and fused_fit:  # the search and the quadratic fit in one pass (the same values)
+            out = np.empty(vectors.shape, np.float32)
             search_fit_tiles(r_img, a_img, size, centre, bias, thresh, vectors, out)
-        else:
-            search_tiles(r_img, a_img, size, centre, params.search_radius[k], l2, bias, thresh, vectors)
+            return out, tile
+        search_tiles(r_img, a_img, size, centre, params.search_radius[k], l2, bias, thresh, vectors)
     # the sub-pixel step: HDR+'s quadratic fit (the paper's), or Lucas–Kanade with the regularised field (default)
+    out = np.empty(vectors.shape, np.float32)
     if params.subpixel and params.refine == "lk":
         refined = np.empty(vectors.shape, np.float64)
         info = np.empty(vectors.shape[:2] + (3,), np.float64)
@@ -162,9 +163,9 @@ def _tiles(ref, alt, step, params, noise0, rho) -> tuple[np.ndarray, int]:
             variance = tile_sums(noise0, tile, vectors.shape[:2]) / (tile * tile)
             refined = regularise(refined, info, variance, params.smoothness, SMOOTHNESS_SWEEPS)
         out[...] = refined
-    elif params.subpixel and not fused_fit:
+    elif params.subpixel:
         subpixel_fit(ref64[0], alt64[0], tile, vectors, out)
-    elif not params.subpixel:
+    else:
         out[...] = vectors
     return out, tile
 
