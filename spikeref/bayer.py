@@ -25,6 +25,8 @@ Conventions (``docs/equations.md``, ``docs/spec/README.md``)
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from spikeref._jit import njit, prange
@@ -231,9 +233,12 @@ def _demosaic_bilinear(mosaics, channel_of_plane, g_kernel, rb_kernel, weight, u
                 out[img, y, x, c] = num[x] / d[x]
 
 
-def _interior_taps(channels: np.ndarray, g_kernel: np.ndarray, rb_kernel: np.ndarray, width: int):
-    """The rows of tap weights, colour tests and weight sums of :func:`_demosaic_bilinear` for each row parity."""
-    weight = np.zeros((2, 3, 9, width), dtype=g_kernel.dtype)
+@functools.lru_cache(maxsize=16)
+def _interior_taps(channels: tuple, dtype: str, width: int):
+    """The rows of tap weights, colour tests and weight sums of :func:`_demosaic_bilinear` for each row parity,
+    made once per CFA, dtype and width (a video's frames share them; nothing writes to them)."""
+    g_kernel, rb_kernel = G_KERNEL.astype(dtype), RB_KERNEL.astype(dtype)
+    weight = np.zeros((2, 3, 9, width), dtype=dtype)
     use = np.zeros((2, 3, 9, width), dtype=np.bool_)
     den = np.ones((2, 3, width), dtype=np.float64)
     for py in range(2):
@@ -282,7 +287,6 @@ def demosaic_bilinear(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:
     h, w = mosaic.shape[-2:]
     flat = np.ascontiguousarray(mosaic.reshape((-1, h, w)), dtype=dtype)
     out = np.empty(flat.shape + (3,), dtype=dtype)
-    g_kernel, rb_kernel = G_KERNEL.astype(dtype), RB_KERNEL.astype(dtype)
-    _demosaic_bilinear(flat, channels, g_kernel, rb_kernel, *_interior_taps(channels, g_kernel, rb_kernel, w),
-                       np.dtype(dtype).type(0), out)
+    _demosaic_bilinear(flat, channels, G_KERNEL.astype(dtype), RB_KERNEL.astype(dtype),
+                       *_interior_taps(tuple(channels.tolist()), np.dtype(dtype).str, w), np.dtype(dtype).type(0), out)
     return out.reshape(lead + (h, w, 3))
