@@ -19,15 +19,23 @@ when ``../shared/data/real/`` is there.  One section per idea of the paper (Yang
 9. the stage ladder: what each stage gains (a small run, ``spikeref.bench.ladder``);
 10. the video: consecutive output frames against the truth.
 
-Writes ``NN_name.png`` into ``--out`` (default ``docs/tour``) and the page that shows them with
-the equations and the measured numbers, ``<out>.md`` beside that folder (``docs/tour.md``).
-Run from the repository root (about 10 s on two cores once the Numba kernels are compiled)::
+Writes ``NN_name.png`` into ``--out`` and the page that shows them with the equations and the
+measured numbers, ``<out>.md`` beside that folder.  By default ``--out`` is the scratch folder
+``out/tour`` of the current directory (the page: ``out/tour.md``; ``out/`` is git-ignored), so
+a plain run never touches the committed page::
 
-    python examples/tour.py [--out docs/tour] [--small]
+    python examples/tour.py [--out out/tour] [--small]
 
-``--small`` makes every figure at a reduced size (fewer pixels traced, fewer frames scored, the
-ladder on the sample alone): what ``tests/test_tour.py`` runs.  Needs matplotlib (the ``plot``
-or ``test`` extra).
+To regenerate the committed page, ``docs/tour/`` and ``docs/tour.md``, say so explicitly, from
+anywhere (about a minute on two cores once the Numba kernels are compiled)::
+
+    python examples/tour.py --update-docs
+
+``--update-docs`` refuses ``--out`` and ``--small``, and refuses to run without the real
+recording (``../shared/data/real/spikingsim_real_spike.npz`` beside the repository), whose section
+the committed page shows.  ``--small`` makes every figure at a reduced size (fewer pixels traced,
+fewer frames scored, the ladder on the sample alone): what ``tests/test_tour.py`` runs.  Needs
+matplotlib (the ``plot`` or ``test`` extra).
 """
 
 from __future__ import annotations
@@ -42,6 +50,10 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 REAL = ROOT.parent / "shared" / "data" / "real" / "spikingsim_real_spike.npz"
+#: The committed page's figures (``--update-docs``); the page is ``docs/tour.md``.
+DOCS = ROOT / "docs" / "tour"
+#: The default ``--out``: a scratch folder of the current directory (``out/`` is git-ignored).
+SCRATCH = Path("out") / "tour"
 
 try:  # a checkout that was not installed: use the package beside this folder
     import spikeref  # noqa: F401
@@ -640,18 +652,40 @@ SECTIONS = (section_sample, section_pixel, section_windows, section_noise_check,
             section_denoiser)
 
 
-def main(argv=None) -> list[Path]:
-    """Write the figures and the page; returns the files written (figures, then the page)."""
+def parse_args(argv=None) -> argparse.Namespace:
+    """The command line, with ``out`` resolved: ``--out``, ``DOCS`` with ``--update-docs``, else ``SCRATCH``."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "tour",
-                    help="folder of the figures; the page is written beside it as <out>.md")
+    ap.add_argument("--out", type=Path, default=None,
+                    help=f"folder of the figures; the page is written beside it as <out>.md (default: {SCRATCH}, "
+                         "a scratch folder of the current directory)")
+    ap.add_argument("--update-docs", action="store_true",
+                    help=f"regenerate the committed page: write {DOCS.relative_to(ROOT)}/ and "
+                         f"{DOCS.relative_to(ROOT)}.md (the full tour; not with --out or --small)")
     ap.add_argument("--small", action="store_true",
                     help="every figure at a reduced size (the test's run)")
     args = ap.parse_args(argv)
+    if args.update_docs:
+        if args.out is not None:
+            ap.error("--update-docs writes docs/tour/ and docs/tour.md: leave out --out")
+        if args.small:
+            ap.error("--update-docs makes the committed page, which is the full tour: leave out --small")
+        if not REAL.is_file():
+            ap.error(f"--update-docs: the committed page shows the real recording {REAL.name}, which is not in "
+                     f"{REAL.parent}; regenerating without it would drop that section")
+        args.out = DOCS
+    elif args.out is None:
+        args.out = SCRATCH
+    return args
+
+
+def main(argv=None) -> list[Path]:
+    """Write the figures and the page; returns the files written (figures, then the page)."""
+    args = parse_args(argv)
+    args.out = args.out.resolve()  # the files returned and printed are absolute
     try:
         import matplotlib  # noqa: F401
     except ImportError:
-        ap.error("the tour draws with matplotlib: pip install 'spikeref[plot]'")
+        sys.exit("tour.py: error: the tour draws with matplotlib: pip install 'spikeref[plot]'")
     args.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     tour = Tour(args.out, args.small)
@@ -664,11 +698,13 @@ def main(argv=None) -> list[Path]:
     parts.append(section_ladder(tour))
     parts.append(section_video(tour))
     page = args.out.parent / f"{args.out.name}.md"
+    command = "python examples/tour.py" + (" --update-docs" if args.update_docs else "") + (
+        " --small" if args.small else "")
     head = f"""# A guided tour: from spikes to 2000 FPS colour video
 
 One figure per idea of the paper (Yang et al., *Real-data-driven 2000 FPS Color Video from
 Mosaicked Chromatic Spikes*, ECCV 2024), each made from real computation on the embedded sample
-by `python examples/tour.py`{" --small" if args.small else ""} (this page and the figures in
+by `{command}` (this page and the figures in
 `{args.out.name}/` are its output).  Every frame is linear RGB in spikes per readout, shown through
 one exposure; every PSNR is `spikeref.metrics.psnr` against the exact truth of the same 10
 planes, the truth's peak as the data range.  `docs/equations.md` maps each equation to its

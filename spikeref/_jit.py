@@ -29,12 +29,14 @@ plain Python, exactly as under ``NUMBA_DISABLE_JIT=1``.
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 import os
 import sys
 from pathlib import Path
 
-__all__ = ["njit", "prange", "caching_enabled", "cache_dir", "default_cache_dir", "numba_available"]
+__all__ = ["njit", "prange", "caching_enabled", "cache_dir", "default_cache_dir", "numba_available", "is_warm",
+           "mark_warm"]
 
 
 def default_cache_dir() -> Path | None:
@@ -114,3 +116,38 @@ def njit(*args, parallel: bool = False, **kwargs):
     if len(args) == 1 and callable(args[0]) and not kwargs:
         return numba.njit(**options)(args[0])
     return numba.njit(*args, **options)
+
+
+def _warm_marker(tag: str) -> Path | None:
+    """The file that says ``tag``'s kernels are in the cache for this package as it is on disk now.
+
+    Its name hashes what Numba's own cache index checks (the source files' paths, sizes and modification
+    times) and the Numba and Python versions: a reinstall elsewhere, an edit or an upgrade leaves it
+    absent, as Numba's index would then be stale.  ``None`` when nothing is cached.
+    """
+    if cache_dir is None:
+        return None
+    package = Path(__file__).resolve().parent
+    digest = hashlib.sha1(f"{package}|{numba.__version__}|{sys.version_info[:2]}".encode())
+    for path in sorted(package.rglob("*.py")):
+        st = path.stat()
+        digest.update(f"|{path.relative_to(package)}:{st.st_size}:{st.st_mtime_ns}".encode())
+    return cache_dir / "warm" / f"{tag}-{digest.hexdigest()[:20]}"
+
+
+def is_warm(tag: str) -> bool:
+    """Whether a run of ``tag`` (a command name) finished with this package's kernels cached (:func:`mark_warm`)."""
+    marker = _warm_marker(tag)
+    return marker is not None and marker.is_file()
+
+
+def mark_warm(tag: str) -> None:
+    """Record that ``tag`` ran to its end: its kernels are now in the cache (nothing when caching is off)."""
+    marker = _warm_marker(tag)
+    if marker is None:
+        return
+    try:
+        marker.parent.mkdir(parents=True, exist_ok=True)
+        marker.touch()
+    except OSError:  # a cache folder that became read-only: the next run says it compiles again, no harm
+        pass

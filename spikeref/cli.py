@@ -113,10 +113,25 @@ def _check_float(value, flag: str, positive: bool = True) -> None:
         raise CliError(f"{flag} must be a finite number {'>' if positive else '≥'} 0; got {value:g}")
 
 
-def _check_folder_can_exist(folder: Path, flag: str, target: Path) -> None:
-    """Refuse when ``folder`` cannot be made or written: its nearest existing ancestor must be a writable folder."""
+def _check_folder_can_exist(folder: Path, flag: str, target: Path, *, new: bool = False) -> None:
+    """Refuse unless ``folder`` is a writable folder — or, with ``new`` (a folder the run makes: ``--exr-dir``,
+    ``--out``), unless its parent is.
+
+    The rule for outputs: spikeref makes at most the one folder an option names, inside a folder that exists; it
+    never makes missing parents (``-o /nonexistent/dir/out.mp4`` is a typo to be told of, not a tree to be made
+    at the root of the file system).
+    """
     p = Path(os.path.abspath(folder))
-    while not p.exists() and p.parent != p:
+    if not p.exists():
+        ancestor = p.parent
+        while not ancestor.exists() and ancestor.parent != ancestor:
+            ancestor = ancestor.parent
+        if not ancestor.is_dir():
+            raise CliError(f"{flag} {target}: cannot write there ({ancestor} is not a folder)")
+        if not new or not p.parent.exists():
+            missing = p if not new else p.parent
+            raise CliError(f"{flag} {target}: the folder {missing} does not exist (make it first: spikeref makes no "
+                           f"missing parent folders)")
         p = p.parent
     if not p.is_dir():
         raise CliError(f"{flag} {target}: cannot write there ({p} is not a folder)")
@@ -147,16 +162,41 @@ def _check_video(path: Path | None, flag: str = "-o/--output") -> None:
 
 
 def _check_output_dir(path: Path | None, flag: str) -> None:
-    """An output folder: absent (it is made when the run starts) or a folder, where one can be made."""
+    """An output folder: a folder, or absent inside an existing folder (it is made when the run starts)."""
     if path is None:
         return
     if path.exists() and not path.is_dir():
         raise CliError(f"{flag} {path}: cannot write there ({path} is not a folder)")
-    _check_folder_can_exist(path, flag, path)
+    _check_folder_can_exist(path, flag, path, new=True)
 
 
 def _check_seed(value) -> None:
     _check_int(value, "--seed", 0, "a whole number ≥ 0")
+
+
+#: Seconds a command's first run spends compiling its Numba kernels, measured with an empty cache on two
+#: cores (``scripts/first_run_compile.py``; ``docs/results.md``, "First run: what Numba compiles").
+FIRST_RUN_COMPILE_S = {"reconstruct": 40, "denoise": 15, "baseline": 8, "noise-check": 6, "bench": 60}
+
+
+def _compiling_note(args, tag: str) -> None:
+    """Say once, before a run sits silent while Numba compiles, that it does and for about how long.
+
+    Nothing when the kernels of ``tag`` are already cached for this install (:func:`spikeref._jit.is_warm`); the
+    command records that they are once it ends well (``main`` calls :func:`spikeref._jit.mark_warm`).
+    """
+    from spikeref import _jit
+
+    if not _jit.numba_available or _jit.is_warm(tag):
+        return
+    seconds = FIRST_RUN_COMPILE_S[args.command]
+    if _jit.caching_enabled:
+        print(f"compiling kernels once, about {seconds} s on two cores (cached in {_jit.cache_dir} for later runs)",
+              file=sys.stderr)
+    else:
+        print(f"compiling kernels, about {seconds} s on two cores (the kernel cache is off, so every run compiles: "
+              f"SPIKEREF_NUMBA_CACHE=0 or no writable cache folder)", file=sys.stderr)
+    args.compile_tag = tag
 
 
 def _bundled_weights_by_default(args, accumulate: str) -> None:
@@ -391,6 +431,7 @@ def cmd_baseline(args) -> int:
         raise CliError(f"window={args.window} is longer than the stream ({len(stream)} planes)")
     total = baseline_frame_count(len(stream), args.method, args.window, args.every)
     frames = _frames_within(args.frames, range(total), "there are frames 0:{stop}")
+    _compiling_note(args, f"baseline-{args.method}")
     with _output_phase():
         render_baseline(
             stream, args.method, args.output, exr_dir=args.exr_dir, window=args.window, every=args.every,
@@ -461,6 +502,7 @@ def cmd_denoise(args) -> int:
     _bundled_weights_by_default(args, args.accumulate)
     den = _load_denoiser(args.weights, accumulate=args.accumulate, mode=args.mode, lam=args.lam,
                          shrink=not args.no_shrink, guard=args.guard)
+    _compiling_note(args, f"denoise-{args.accumulate}")
     made = den.frames(stream, args.window, start=args.start + frames.start * args.window, count=len(frames),
                       accumulate=args.accumulate)
     first = next(made, None)  # the generator's own checks (and the first frame) before any output is opened
@@ -598,6 +640,7 @@ def cmd_reconstruct(args) -> int:
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
           f"{_axes_said(stream, args)} {stream.cfa or 'mono'} → frames {a}:{b} at {fps_out:g} FPS ({', '.join(parts)})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
+    _compiling_note(args, f"reconstruct-{preset}")
     written = len(done)  # whole EXR frames of a:b in exr_dir, for the line of an interrupted or failed run
     t_loop = time.perf_counter()
     try:
@@ -756,6 +799,7 @@ def cmd_bench(args) -> int:
     print(f"bench v{BENCH_VERSION}: {len(settings)} settings × {len(scenes)} scenes, {grid.frames} scored frames "
           f"each → {out}", file=sys.stderr)
     t0 = time.perf_counter()
+    _compiling_note(args, "bench")
     result = run_bench(grid, seed=args.seed, denoiser=den, progress=not args.no_progress,
                        sheet_scene=args.sheet_scene)
     elapsed = time.perf_counter() - t0
@@ -820,6 +864,13 @@ def _cmd_ladder(args) -> int:
     _writable_dir(out, "--out")  # the last check, and the first thing made: every argument is good
     print(f"bench v{BENCH_VERSION} ladder: {len(settings)} setting(s) × {len(scenes)} scenes, {frames} scored frames "
           f"each → {out}", file=sys.stderr)
+    from spikeref.denoise.peers import peer_available
+
+    missing = [name for name in ("bm3d", "nlm") if not peer_available(name)]
+    if missing:
+        print(f"note: the {' and '.join(m.upper() for m in missing)} rungs are left out: they need the peers extra "
+              f"(bm3d, scikit-image, PyWavelets): pip install \"spikeref[peers]\"", file=sys.stderr)
+    _compiling_note(args, "bench-ladder")
     t0 = time.perf_counter()
     result = run_ladder(scenes, settings, seed=args.seed, denoiser=den, frames=frames,
                         progress=not args.no_progress)
@@ -992,6 +1043,7 @@ def cmd_noise_check(args) -> int:
         if importlib.util.find_spec("matplotlib") is None:
             raise CliError("--plot needs matplotlib: pip install 'spikeref[plot]'")
     stream = open_input(args)
+    _compiling_note(args, "noise-check")
     result = noise_check(stream, windows=args.windows, start=args.start, planes=args.planes,
                          min_rate=args.min_rate, progress=True)
     print(f"noise ratio I_c / E[I_c] - 1 of {stream.path or 'the input'} (Fig. 4a; the scene must be static)")
@@ -1001,6 +1053,8 @@ def cmd_noise_check(args) -> int:
             args.plot.parent.mkdir(parents=True, exist_ok=True)
             plot_noise_check(result, args.plot)
         print(f"plot: {args.plot}")
+    for line in result.warnings:  # a channel resting on too few pixels (also marked in the table and plot)
+        print(f"warning: {line}", file=sys.stderr)
     return 0
 
 
@@ -1152,15 +1206,13 @@ def build_parser() -> argparse.ArgumentParser:
                         "beyond the paper where the stage ladder measured a gain: docs/results.md)")
     p.add_argument("--preset", choices=["default", "fast", "fastest", "paper"], default=None,
                    help="named settings (options given with it win): default (the defaults below); fast (the "
-                        "defaults with --warp chained: only the step-0 flows estimated and composed; measured 15.6 "
-                        "against 12.1 frames/s at 250×400 on two cores, 0.05 dB under the defaults on the "
-                        "benchmark's mean, docs/results.md); fastest (fast with --no-denoiser: about 5× the "
-                        "defaults' frames/s, within 0.1 dB of them on the benchmark's and held-out means, 0.4 dB "
-                        "under in low light); "
-                        "paper (= --paper)")
+                        "defaults with --warp chained: only the step-0 flows estimated and composed; faster, at "
+                        "about the defaults' accuracy); fastest (fast with --no-denoiser: faster still, a little "
+                        "under the defaults in low light); paper (= --paper). Their measured frames/s and dB: "
+                        "README.md, 'Fast preset', and docs/results.md, 'Speed'")
     p.add_argument("--no-denoiser", action="store_true",
                    help="D is the identity: no network pass, no weights (not in the paper; with window charges the "
-                        "network gains about 0.05 dB on the benchmark's mean for half the frame time: docs/results.md)")
+                        "network gains little on the benchmark for about half the frame time: docs/results.md)")
     p.add_argument("--profile", action="store_true",
                    help="after the run, print to stderr where the time went: seconds, %% of the run's time and "
                         "milliseconds per frame for accumulate (Eq. 4), network (the U-Net's passes), guard (the "
@@ -1184,8 +1236,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "accuracy on the benchmark; not in the paper)")
     p.add_argument("--resample", choices=["window", "path"], default=None,
                    help="with the composed or chained warp: window (default; each spike window sampled once, at the "
-                        "mean composed position of its paths: 2.1x faster warp, same accuracy on the benchmark) or "
-                        "path (once per path, the composed warp before 2026-11-24)")
+                        "mean composed position of its paths: a faster warp, the same accuracy on the benchmark, "
+                        "docs/results.md) or path (once per path, the composed warp before 2026-11-24)")
     p.add_argument("--demosaic", choices=["bilinear", "mhc"], default=None,
                    help="the output frame's demosaic: bilinear (default; the paper's Ψ, Eq. 13) or mhc "
                         "(Malvar-He-Cutler 5x5 filters: sharper on photographs, not in the paper; docs/results.md)")
@@ -1442,7 +1494,12 @@ def main(argv=None) -> int:
         warnings.showwarning = _one_line_notes(args.command, warnings.showwarning)
         try:
             with _sigterm_as_interrupt():
-                return args.func(args)
+                status = args.func(args)
+            if status == 0 and getattr(args, "compile_tag", None):
+                from spikeref import _jit
+
+                _jit.mark_warm(args.compile_tag)  # its kernels are cached now: the next run says nothing
+            return status
         except Interrupted as exc:
             if debug:
                 raise

@@ -76,6 +76,17 @@ CLI_CASES = [
     ("bench unknown method", lambda d: ["bench", "--methods", "magic", "--out", str(d / "b")], "unknown methods magic"),
     ("bench output under a file", lambda d: ["bench", "--methods", "tfi", "--out", str(_toml(d, "x") / "b")],
      "cannot write there"),
+    ("video in a missing folder", lambda d: ["reconstruct", "-o", str(d / "no" / "dir" / "o.mp4")],
+     "the folder {d}/no/dir does not exist"),
+    ("EXR folder two levels down", lambda d: ["reconstruct", "--exr-dir", str(d / "no" / "exr")],
+     "the folder {d}/no does not exist"),
+    ("denoise video in a missing folder", lambda d: ["denoise", "-o", str(d / "no" / "o.mp4")], "does not exist"),
+    ("baseline EXR two levels down", lambda d: ["baseline", "tfp", "--exr-dir", str(d / "no" / "exr")],
+     "does not exist"),
+    ("noise-check plot in a missing folder", lambda d: ["noise-check", "--plot", str(d / "no" / "p.png")],
+     "does not exist"),
+    ("simulate into a missing folder", lambda d: ["simulate", str(_toml(d, SCENE.format(b=0.5))),
+                                                  "-o", str(d / "no" / "o.dat")], "does not exist"),
 ]
 
 
@@ -86,10 +97,23 @@ def test_cli_bad_input_fails_cleanly(tmp_path, capsys, case):
     before = {p for p in tmp_path.rglob("*")}
     assert main(args) == 2
     err = capsys.readouterr().err
+    message = message.replace("{d}", str(tmp_path))
     assert "error:" in err and message in err, err
+    assert len(err.strip().splitlines()) == 1 or "compiling kernels" in err, err
     after = {p for p in tmp_path.rglob("*")}
-    left = sorted(str(p.relative_to(tmp_path)) for p in after - before if p.is_file())
+    left = sorted(str(p.relative_to(tmp_path)) for p in after - before)
     assert left == [], f"partial output left behind: {left}"
+
+
+def test_an_output_folder_is_made_one_level_deep_and_never_its_missing_parents(tmp_path, capsys, monkeypatch):
+    """The rule of the CLI's outputs: the folder an option names (``--exr-dir``) is made inside a folder that exists;
+    a missing parent — of a video, or of that folder — is refused in one line, with nothing made (the defect:
+    ``-o /nonexistent/dir/out.mp4`` made ``/nonexistent/dir`` and exited 0)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["reconstruct", "--frames", "3:4", "-o", "no/dir/out.mp4"]) == 2
+    assert "the folder" in capsys.readouterr().err and not (tmp_path / "no").exists()
+    assert main(["reconstruct", "--frames", "3:4", "--exr-dir", "exr"]) == 0
+    assert sorted(p.name for p in (tmp_path / "exr").iterdir())[-1] == "spikeref_run.json"
 
 
 def _api_cases():

@@ -138,9 +138,57 @@ def test_summary_and_contact_sheet():
     summary = summarize(rows)
     assert [r["pareto_psnr"] for r in summary] == [True, True, False]
     img = {"reference": np.full((12, 16, 3), 0.5, np.float32), "A": np.zeros((12, 16, 3), np.float32)}
-    sheet = contact_sheet(img, columns=6, gap=4)
+    sheet = contact_sheet(img, columns=6, gap=4, captions=False)
     assert sheet.shape == (12, 36, 3) and sheet.dtype == np.uint8
     assert sheet[:, :16].min() > 200 and sheet[:, 20:].max() == 0  # one exposure: the reference maps near white
+
+
+def test_contact_sheet_names_every_tile():
+    from spikeref.bench.report import _text_mask
+    from spikeref.tonemap import choose_exposure, tonemap
+
+    long = "ours visible W=10 K=3 L=3 smoothed-flow (fastest preset)"
+    names = ["reference", "TFP W=10", "TFP W=100", long]
+    img = {n: np.full((40, 128, 3), v, np.float32) for n, v in zip(names, (0.5, 0.1, 0.3, 0.4), strict=True)}
+    sheet = contact_sheet(img, columns=3, gap=4)
+    assert sheet.dtype == np.uint8 and sheet.shape[1] == 3 * 128 + 2 * 4
+    cap = (sheet.shape[0] + 4) // 2 - 40 - 4  # two rows of caption + tile + gap
+    assert cap == 3 * 9 + 4  # the long name takes three lines of 21 characters; every strip is as tall
+    assert sheet.shape[0] == 2 * (cap + 40 + 4) - 4
+    exposure = choose_exposure(img["reference"])
+    strips = {}
+    for i, n in enumerate(names):
+        y, x = divmod(i, 3)
+        top, left = y * (cap + 44), x * 132
+        strip = sheet[top: top + cap, left: left + 128]
+        assert (strip == 0).any() and (strip == 255).mean() > 0.5  # black text on white, not blank
+        np.testing.assert_array_equal(sheet[top + cap: top + cap + 40, left: left + 128], tonemap(img[n], exposure))
+        strips[n] = strip
+    # the caption is the name itself in the built-in font, centred, next to its own tile (below it)
+    ink = strips["TFP W=10"][..., 0] == 0
+    ys, xs = np.nonzero(ink)
+    text = _text_mask("TFP W=10")
+    ty, tx = np.nonzero(text)
+    np.testing.assert_array_equal(ink[ys.min(): ys.max() + 1, xs.min(): xs.max() + 1],
+                                  text[ty.min(): ty.max() + 1, tx.min(): tx.max() + 1])
+    assert abs((xs.min() + xs.max()) - 127) <= 1 and cap - 1 - ys.max() < ys.min()
+    assert not np.array_equal(strips["TFP W=10"], strips["TFP W=100"])
+    lines = (strips[long] == 0).any(axis=(1, 2))[3: 3 + 27].reshape(3, 9).any(axis=1)
+    assert lines.all()  # all three lines of the long name are written
+    assert contact_sheet(img, columns=3, gap=4, captions=False).shape == (2 * 44 - 4, 3 * 132 - 4, 3)
+
+
+def test_caption_wrap():
+    from spikeref.bench.report import _wrap
+
+    name = "ours visible W=10 K=3 L=3 smoothed-flow (fastest preset)"
+    lines = _wrap(name, 21, 4)
+    assert lines == ["ours visible W=10 K=3", "L=3 smoothed-flow", "(fastest preset)"]
+    assert _wrap(name, 21, 2) == ["ours visible W=10 K=3", "L=3 smoothed-flow ..."]
+    assert _wrap(name, 10, 2) == ["ours", "visible..."]
+    assert all(len(line) <= 8 for line in _wrap("reference smoothed-flow", 8, 9))
+    assert "".join(_wrap("reference smoothed-flow", 8, 9)) == "referencesmoothed-flow"
+    assert _wrap("x", 0, 3) == []
 
 
 def test_cli_bench_small_run_writes_every_output(tmp_path, capsys):
@@ -231,9 +279,135 @@ def test_pareto_labels_never_overlap():
     fig.canvas.draw()
     _label_points(ax, summary, cost, score, np.ones(10, bool), np.ones(10, bool))
     labels = [t for t in ax.texts]
+    fig.canvas.draw()  # an annotation's text goes where it belongs when drawn
     renderer = fig.canvas.get_renderer()
-    boxes = [t.get_window_extent(renderer) for t in labels]
+    boxes = _text_boxes(labels, renderer)
     assert "defaults (10/3/3)" in [t.get_text() for t in labels]
-    assert 1 <= len(labels) < 10
+    assert len(labels) == 10  # every one kept: those with no room beside their point go to a free slot
+    assert sum(t.arrow_patch is not None for t in labels) >= 5  # … joined to it by a leader line
     assert not any(a.overlaps(b) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+    _assert_leaders_clear(ax, labels, boxes)
     plt.close(fig)
+
+
+
+def test_pareto_labels_keep_off_the_legend_and_the_front():
+    # A point with the legend just right of it and the front's line running into it from the left: its
+    # label goes neither over the legend nor across the line.
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from spikeref.bench.report import _place_labels
+
+    fig, ax = plt.subplots()
+    ax.scatter([0.5], [0.5], s=28)
+    ax.plot([0.0, 0.5], [0.5, 0.5], color="k", lw=1)
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    ax.legend(handles=[plt.Line2D([], [], color="k", label=f"entry {k}") for k in range(6)],
+              loc="center left", bbox_to_anchor=(0.52, 0.5))
+    fig.canvas.draw()
+    (label,) = _place_labels(ax, [(0.5, 0.5, "the defaults")])
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    (box,) = _text_boxes([label], renderer)
+    assert not box.overlaps(ax.get_legend().get_window_extent(renderer))
+    (x0, y), (x1, _) = ax.transData.transform([(0.0, 0.5), (0.5, 0.5)])
+    assert not (box.y0 < y < box.y1 and box.x0 < x1 and box.x1 > x0)
+    plt.close(fig)
+
+def _text_boxes(labels, renderer):
+    """The display boxes of the labels' text alone (an Annotation's own extent takes in its leader line)."""
+    from matplotlib.text import Text
+
+    return [Text.get_window_extent(t, renderer) for t in labels]
+
+
+def _assert_leaders_clear(ax, labels, boxes):
+    """No leader line, as drawn, passes through another label; each one ends on its own point."""
+    for i, t in enumerate(labels):
+        if t.arrow_patch is None:
+            continue
+        arrow = t.arrow_patch
+        v = arrow.get_transform().transform_path(arrow.get_path()).vertices
+        np.testing.assert_allclose(v[-1], ax.transData.transform(t.xy), atol=0.5)
+        along = np.concatenate([a + np.linspace(0, 1, 200)[:, None] * (b - a)
+                                for a, b in zip(v[:-1], v[1:], strict=True)])
+        for j, b in enumerate(boxes):
+            assert j == i or not any(b.contains(x, y) for x, y in along), (t.get_text(), labels[j].get_text())
+
+
+def _crowded_summary():
+    """Fifteen settings, all on the Pareto front, within a few hundredths of a dB and a few percent of time."""
+    def row(name, method, c, p, **kw):
+        return {"setting": name, "method": method, "W": 10, "K": 3, "L": 3, "mode": "visible" if method == "ours"
+                else "", "align": "on" if method == "ours" else "", "flow_frames": "", "warp": "", "denoise": "on",
+                "scene": "x", "psnr": p, "ssim": 0.7 + 0.01 * p / 28, "pu21_psnr": p - 5, "pu21_ssim": 0.5,
+                "seconds_per_frame": c, "warmup_s": 0.0, **kw}
+
+    rows = [row("TFP W=10", "tfp", 0.0002, 20.0), row("TFP W=100", "tfp", 0.00021, 25.0),
+            row("ours visible W=10 K=3 L=3 smoothed-flow (fastest preset)", "ours", 0.0030, 27.50,
+                warp="chained", flow_frames="smoothed", denoise="off"),
+            row("ours visible W=10 K=3 L=3 smoothed-flow (fast preset)", "ours", 0.00305, 27.51, warp="chained",
+                flow_frames="smoothed"),
+            row("ours visible W=10 K=3 L=3 smoothed-flow", "ours", 0.0100, 27.52, flow_frames="smoothed")]
+    rows += [row(f"ours visible W=10 K={k} L={n}", "ours", 0.0101 * (1 + 0.01 * (3 * k + n)),
+                 27.53 + 0.004 * (3 * k + n)) for k in (3, 5) for n in range(5)]
+    assert len(rows) == 15
+    return summarize(rows)
+
+
+def test_crowded_pareto_labels_are_all_readable():
+    # Fifteen settings bunched together: every name the plot gives is drawn, inside its panel, over no
+    # other label, no marker's centre and not the legend; the crowd is untangled with leader lines.
+    pytest.importorskip("matplotlib")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from spikeref.bench.report import _pareto_figure
+
+    summary = _crowded_summary()
+    assert all(r["pareto_psnr"] for r in summary)
+    fig = _pareto_figure(summary)
+    try:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        for k, ax in enumerate(fig.axes):
+            texts = list(ax.texts)
+            names = [t.get_text() for t in texts]
+            expected = 15 if k != 1 else 13  # the zoom on the top 1.5 dB leaves the two TFPs out
+            assert len(names) == len(set(names)) == expected, names
+            assert {"defaults (10/3/3)", "fast preset", "fastest preset", "visible W=10 K=5 L=4"} <= set(names)
+            assert k == 1 or {"TFP W=10", "TFP W=100"} <= set(names)
+            boxes = _text_boxes(texts, renderer)
+            for i, a in enumerate(boxes):
+                for j, b in enumerate(boxes[i + 1:], start=i + 1):
+                    assert not a.overlaps(b), (names[i], names[j])
+            frame = ax.get_window_extent(renderer)
+            assert all(frame.x0 <= b.x0 and b.x1 <= frame.x1 and frame.y0 <= b.y0 and b.y1 <= frame.y1
+                       for b in boxes)
+            centres = np.concatenate([c.get_offset_transform().transform(c.get_offsets()) for c in ax.collections])
+            for name, b in zip(names, boxes, strict=True):
+                assert not any(b.contains(x, y) for x, y in centres), name
+            if ax.get_legend() is not None:
+                legend = ax.get_legend().get_window_extent(renderer)
+                assert not any(b.overlaps(legend) for b in boxes)
+            assert any(t.arrow_patch is not None for t in texts)
+            _assert_leaders_clear(ax, texts, boxes)
+    finally:
+        plt.close(fig)
+
+
+def test_pareto_plot_without_matplotlib(tmp_path, monkeypatch):
+    import sys
+
+    from spikeref.bench.report import plot_pareto
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib → ImportError
+    assert plot_pareto(_crowded_summary(), tmp_path / "p.png") is False
+    assert not (tmp_path / "p.png").exists()

@@ -213,7 +213,7 @@ def test_the_layer_test_sees_a_wrong_import(tmp_path):
 
 
 #: The optional extras (``pyproject.toml``): the only imports a library module may defer into a function.
-OPTIONAL_EXTRAS = ("torch", "dask", "distributed", "bm3d", "skimage", "matplotlib")
+OPTIONAL_EXTRAS = ("torch", "dask", "distributed", "bm3d", "skimage", "pywt", "matplotlib")
 
 
 def _deferred_imports(path: Path):

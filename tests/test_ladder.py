@@ -82,6 +82,16 @@ def test_peer_rungs_leave_with_their_peer():
     assert res["rungs"] == (("nlm",) if "nlm" in res["rungs"] else ())
 
 
+def test_a_missing_peer_package_is_named_with_its_extra(monkeypatch):
+    """scikit-image without PyWavelets (a fresh install without the peers extra): the NLM rungs are left out with a
+    note naming the extra, instead of the run stopping inside scikit-image's estimate_sigma."""
+    monkeypatch.setitem(__import__("sys").modules, "pywt", None)
+    res = run_ladder([], peers=("nlm",), progress=False)
+    assert "nlm" not in res["rungs"]
+    assert any(n.startswith("nlm:") and 'pip install "spikeref[peers]"' in n for n in res["notes"]), res["notes"]
+    assert 'left out: nlm: not installed (pip install "spikeref[peers]")' in ladder_markdown(res)
+
+
 def test_unknown_rung():
     with pytest.raises(ValueError, match="unknown rung fastest; allowed: tfp, bm3d"):
         run_ladder([], rungs=("fastest",))

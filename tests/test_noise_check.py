@@ -193,6 +193,110 @@ def test_a_channel_without_pixels_is_nan():
     assert np.all(np.isfinite(res.mean_abs_ratio[0, 1:]))
 
 
+# ---------------------------------------------------------------------- too few pixels
+
+
+def _mostly_dark(side=32, lit=5, planes=400, seed=30):
+    """A static stream where all but ``lit`` pixels fire far below the default min_rate (20/planes)."""
+    rates = np.full((side, side), 0.005)  # ~2 spikes in 400 planes: left out
+    rates.flat[np.random.default_rng(seed).choice(side * side, lit, replace=False)] = 0.3
+    return bernoulli(rates, planes, seed=seed)
+
+
+def test_a_channel_on_too_few_pixels_is_flagged():
+    """The long-window rows average ~one independent value per pixel: with n pixels a channel's
+    mean |ρ| and std carry a relative standard error of ~1/√n, so fewer than MIN_PIXELS is flagged."""
+    assert nc.MIN_PIXELS == 100
+    res = noise_check(_mostly_dark(), windows=(5, 50))
+    assert res.pixels[0] == 5 and res.too_few_pixels == ("mono",) and len(res.warnings) == 1
+    assert "channel mono rests on 5 pixels (fewer than 100)" in res.warnings[0]
+    assert f"{100 / math.sqrt(5):.0f} %" in res.warnings[0]
+    table = res.table()
+    assert "mono 5 (too few)" in table
+    assert table.splitlines()[-1] == "warning: " + res.warnings[0]
+    # the statistics are computed all the same
+    assert_matches_oracle(res, oracle(_mostly_dark(), (5, 50)))
+    # min_pixels is the threshold; 0 flags nothing
+    assert noise_check(_mostly_dark(), windows=(5,), min_pixels=5).warnings == ()
+    assert noise_check(_mostly_dark(), windows=(5,), min_pixels=6).too_few_pixels == ("mono",)
+    assert noise_check(_mostly_dark(), windows=(5,), min_pixels=0).warnings == ()
+    with pytest.raises(TypeError, match="min_pixels"):
+        noise_check(_mostly_dark(), windows=(5,), min_pixels=2.5)
+    with pytest.raises(ValueError, match="min_pixels"):
+        noise_check(_mostly_dark(), windows=(5,), min_pixels=-1)
+
+
+def test_a_normal_stream_is_not_flagged():
+    res = noise_check(bernoulli(np.full((16, 16), 0.3), 400, seed=31), windows=(5, 50))
+    assert res.pixels[0] == 256 and res.too_few_pixels == () and res.warnings == ()
+    assert "warning" not in res.table() and "too few" not in res.table()
+    # with a CFA each channel is judged on its own pixels: 64 R, 128 G, 64 B of 16x16, at most 128
+    colour = noise_check(bernoulli(np.full((16, 16), 0.3), 400, seed=31), windows=(5,), cfa="RGGB")
+    assert colour.too_few_pixels == ("R", "B")
+    colour = noise_check(bernoulli(np.full((20, 20), 0.3), 400, seed=31), windows=(5,), cfa="RGGB")
+    assert list(colour.pixels) == [100, 200, 100] and colour.warnings == ()
+
+
+def test_one_warning_per_affected_channel():
+    rates = np.full((24, 24), 0.3)
+    rates[0::2, 0::2] = 0.0  # every R pixel of RGGB is dark
+    rates[1::2, 1::2] = 0.005  # and all B pixels but a few
+    rates[1, 1] = rates[3, 3] = 0.3
+    res = noise_check(bernoulli(rates, 400, seed=32), windows=(5,), cfa="RGGB")
+    assert list(res.pixels) == [0, 288, 2] and res.too_few_pixels == ("R", "B")
+    assert len(res.warnings) == 2
+    assert res.warnings[0].startswith("channel R has no pixel") and "NaN" in res.warnings[0]
+    assert res.warnings[1].startswith("channel B rests on 2 pixels")
+    assert "R 0 (too few), G 288, B 2 (too few)" in res.table()
+
+
+def _cli_noise_check(tmp_path, capsys, spikes, *extra):
+    from spikeref.cli import main
+
+    np.save(tmp_path / "s.npy", spikes)
+    assert main(["noise-check", str(tmp_path / "s.npy"), "--windows", "5,50", *extra]) == 0
+    return capsys.readouterr()
+
+
+def test_the_cli_warns_on_too_few_pixels(tmp_path, capsys):
+    cap = _cli_noise_check(tmp_path, capsys, _mostly_dark())
+    lines = [line for line in cap.err.splitlines() if line.startswith("warning:")]
+    assert lines == [
+        "warning: channel mono rests on 5 pixels (fewer than 100): its mean |ratio| and std are "
+        "uncertain by about 45 % (1/√5); analyse a longer span or lower min_rate for more pixels"
+    ]
+    assert "mono 5 (too few)" in cap.out
+    cap = _cli_noise_check(tmp_path, capsys, bernoulli(np.full((16, 16), 0.3), 400, seed=33))
+    assert "warning" not in cap.err and "warning" not in cap.out and "mono 256" in cap.out
+
+
+def _plotted(monkeypatch, res, path):
+    """Draw ``res`` and return the figure that was saved."""
+    from matplotlib.figure import Figure
+
+    saved, real_savefig = [], Figure.savefig
+
+    def savefig(self, *args, **kwargs):
+        saved.append(self)
+        return real_savefig(self, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    plot_noise_check(res, path)
+    assert len(saved) == 1
+    return saved[0]
+
+
+def test_the_plot_marks_a_channel_on_too_few_pixels(tmp_path, monkeypatch):
+    pytest.importorskip("matplotlib")
+    ax = _plotted(monkeypatch, noise_check(_mostly_dark(), windows=(5, 50)), tmp_path / "few.png").axes[0]
+    assert "warning: too few pixels (< 100): mono 5" in ax.get_title()
+    assert all("only 5 px" in t.get_text() for t in ax.get_legend().get_texts())
+    res = noise_check(bernoulli(np.full((16, 16), 0.3), 400, seed=34), windows=(5, 50))
+    ax = _plotted(monkeypatch, res, tmp_path / "fine.png").axes[0]
+    assert "warning" not in ax.get_title()
+    assert not any("px" in t.get_text() for t in ax.get_legend().get_texts())
+
+
 # --------------------------------------------------------------------- packed, memory
 
 
@@ -350,3 +454,20 @@ def test_real_recording_noise_falls_with_window(real_data):
     colour = noise_check(spikes, windows=(5, 50), cfa="RGGB")
     g = colour.mean_abs_ratio[:, [1]]
     np.testing.assert_allclose(colour.mean_abs_ratio, np.broadcast_to(g, colour.mean_abs_ratio.shape), rtol=0.05)
+
+
+@pytest.mark.realdata
+def test_real_low_light_recording_is_flagged(real_data, tmp_path, capsys):
+    """UHSR (200 planes of 250×250, low light): only 3 pixels reach 20 spikes; the CLI says so."""
+    from spikeref.cli import main
+
+    path = real_data / "spikezoo_uhsr.npz"
+    if not path.exists():
+        pytest.skip(f"{path.name} is not present")
+    assert main(["noise-check", str(path), "--windows", "5,50"]) == 0
+    cap = capsys.readouterr()
+    assert "pixels used (long-window rate >= 0.1 and > 0): mono 3 (too few)" in cap.out
+    assert [line for line in cap.err.splitlines() if line.startswith("warning:")] == [
+        "warning: channel mono rests on 3 pixels (fewer than 100): its mean |ratio| and std are uncertain by "
+        "about 58 % (1/√3); analyse a longer span or lower min_rate for more pixels"
+    ]

@@ -32,11 +32,14 @@ def _rates(p, seed=100):
     return (np.random.default_rng(seed).binomial(W, p) / W).astype(np.float32)
 
 
-def _needs(method):
+def _needs(method, sigma="blind"):
+    """Skip unless the packages of the ``peers`` extra that ``method`` with ``sigma`` imports are here."""
     if method == "bm3d":
         pytest.importorskip("bm3d")
     if method in ("bm3d", "nlm"):
         pytest.importorskip("skimage")
+        if sigma == "blind":   # scikit-image's estimate_sigma imports PyWavelets when called
+            pytest.importorskip("pywt")
 
 
 @pytest.mark.parametrize("method", PEERS)
@@ -52,7 +55,7 @@ def test_four_planes_in_four_float32_finite_planes_out(method):
 @pytest.mark.parametrize("method,sigma", [("bm3d", "blind"), ("bm3d", "spike"), ("nlm", "blind"),
                                           ("nlm", "spike"), ("gaussian", "blind")])
 def test_each_peer_lowers_the_mse_of_binomial_rates(method, sigma):
-    _needs(method)
+    _needs(method, sigma)
     p = _truth()
     rates = _rates(p)
     out = PeerDenoiser(method, sigma=sigma)(rates, window=W)
@@ -89,7 +92,7 @@ def test_spike_sigma_reaches_the_library_call(monkeypatch):
 @pytest.mark.parametrize("method,sigma", [("bm3d", "blind"), ("nlm", "blind"), ("nlm", "spike"),
                                           ("bm3d", "spike")])
 def test_flat_plane_with_zero_sigma_comes_back_unchanged(method, sigma):
-    _needs(method)
+    _needs(method, sigma)
     value = 0.0 if sigma == "spike" else 0.3     # spike σ is 0 only where p̂(1 − p̂) = 0
     planes = np.full((4, 16, 20), value, np.float32)
     out = PeerDenoiser(method, sigma=sigma)(planes, window=W)
@@ -100,6 +103,7 @@ def test_flat_plane_with_zero_sigma_comes_back_unchanged(method, sigma):
 def test_blind_sigma_nan_counts_as_zero(monkeypatch):
     # estimate_sigma gives NaN when its finest diagonal wavelet band is all zero
     skimage_restoration = pytest.importorskip("skimage.restoration")
+    pytest.importorskip("pywt")   # asked for before estimate_sigma is called
     monkeypatch.setattr(skimage_restoration, "estimate_sigma", lambda *a, **k: float("nan"))
     plane = _rates(_truth(shape=(16, 20)))
     assert PeerDenoiser("nlm").plane_sigma(plane) == 0.0
@@ -179,6 +183,20 @@ def test_missing_skimage_says_how_to_install(monkeypatch):
     assert "\n" not in str(info.value)
     # the gaussian peer needs neither package
     assert PeerDenoiser("gaussian")(np.zeros((4, 16, 16), np.float32)).shape == (4, 16, 16)
+
+
+def test_missing_pywavelets_says_how_to_install_and_spares_the_spike_sigma(monkeypatch):
+    """scikit-image without PyWavelets: the blind σ (estimate_sigma) is refused before any work, in one line;
+    NLM with the spike σ does not need it."""
+    skimage_restoration = pytest.importorskip("skimage.restoration")
+    monkeypatch.setitem(sys.modules, "pywt", None)
+    assert not peer_available("nlm")
+    with pytest.raises(ImportError, match=r'PyWavelets.*pip install "spikeref\[peers\]"') as info:
+        PeerDenoiser("nlm")(_rates(_truth(shape=(16, 16))))
+    assert "\n" not in str(info.value)
+    monkeypatch.setattr(skimage_restoration, "denoise_nl_means", lambda plane, **kw: plane)
+    rates = _rates(_truth(shape=(16, 16)))
+    np.testing.assert_array_equal(PeerDenoiser("nlm", sigma="spike")(rates, window=W), rates)
 
 
 def test_importing_the_package_does_not_import_the_peers_packages():

@@ -77,11 +77,17 @@ def _import_bm3d():
     return bm3d
 
 
-def _import_skimage_restoration():
+def _import_skimage_restoration(blind_sigma: bool):
     try:
         from skimage import restoration
     except ImportError as exc:
         raise ImportError(f"the 'nlm' peer and sigma='blind' need scikit-image: {_INSTALL}") from exc
+    if blind_sigma:  # estimate_sigma imports PyWavelets only when called: ask for it before any work
+        try:
+            import pywt  # noqa: F401
+        except ImportError as exc:
+            raise ImportError(f"sigma='blind' needs PyWavelets (for scikit-image's estimate_sigma): {_INSTALL}") \
+                from exc
     return restoration
 
 
@@ -102,7 +108,8 @@ def peer_available(method) -> bool:
     Parameters
     ----------
     method : {"bm3d", "nlm", "gaussian"}
-        ``"bm3d"`` needs ``bm3d`` and scikit-image (for the blind σ), ``"nlm"`` scikit-image,
+        ``"bm3d"`` needs ``bm3d`` and scikit-image with PyWavelets (for the blind σ), ``"nlm"``
+        scikit-image with PyWavelets,
         ``"gaussian"`` only SciPy (always available).
 
     Returns
@@ -114,7 +121,7 @@ def peer_available(method) -> bool:
         if method == "bm3d":
             _import_bm3d()
         if method in ("bm3d", "nlm"):
-            _import_skimage_restoration()
+            _import_skimage_restoration(blind_sigma=True)
     except ImportError:
         return False
     return True
@@ -186,7 +193,7 @@ class PeerDenoiser:
                 raise ValueError("sigma='spike' needs window= (the exposure W in planes, of Eq. 4)")
             p = np.clip(np.asarray(plane, dtype=np.float64), 0.0, 1.0)
             return float(np.sqrt(np.mean(p * (1.0 - p)) / float(window)))
-        restoration = _import_skimage_restoration()
+        restoration = _import_skimage_restoration(blind_sigma=True)
         with warnings.catch_warnings():
             # One grey plane; skimage warns that a narrow last axis might be colour channels.  A
             # plane whose finest diagonal wavelet band is all zero (constant, or varying along one
@@ -239,7 +246,7 @@ class PeerDenoiser:
                                  f"method='bm3d' (its 8 × 8 blocks); got {h} × {w}")
             bm3d = _import_bm3d()
         if self.method == "nlm" or (self.method == "bm3d" and self.sigma == "blind"):
-            restoration = _import_skimage_restoration()
+            restoration = _import_skimage_restoration(blind_sigma=self.sigma == "blind")
 
         flat = arr.reshape(-1, h, w).astype(np.float32, copy=False)
         out = np.empty(flat.shape, dtype=np.float32)
