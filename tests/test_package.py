@@ -178,8 +178,8 @@ def test_a_test_may_skip_only_for_the_extras_ci_adds(monkeypatch):
         return SimpleNamespace(skipped=True, outcome="skipped",
                                longrepr=("t.py", 3, f"Skipped: could not import '{module}': No module named 'x'"))
 
-    assert conftest.optional_outside_test() == {"torch": "train", "bm3d": "peers"}
-    monkeypatch.setattr(conftest, "OPTIONAL", conftest.optional_outside_test())
+    assert conftest.optional_outside_test() == conftest.CI_ADDS == {"torch": "train", "bm3d": "peers"}
+    monkeypatch.setattr(conftest, "OPTIONAL", dict(conftest.CI_ADDS))
     for module in ("skimage.restoration", "pywt", "hypothesis", "matplotlib", "dask.distributed", "numba"):
         r = report(module)
         conftest._strict_skip(r)
