@@ -289,6 +289,9 @@ def count_windows(stream, window: int, start: int, count: int, out: np.ndarray) 
 
     An unpacked stream: :func:`count_unpacked`.  A packed one: :func:`count_packed_bytes8` when the
     counts fit uint8 and the columns are whole bytes (the common case), else :func:`count_packed`.
+    Both packed kernels place stored row ``r`` at image row ``H - 1 - r`` (rows stored bottom-up); for
+    a stream whose bytes store the rows top-down (``stream.rows == "top-down"``) the counted rows are
+    flipped afterwards, so ``out`` is upright either way.
     """
     if not stream.is_packed:
         count_unpacked(stream.array, start, window, count, out)
@@ -302,4 +305,6 @@ def count_windows(stream, window: int, start: int, count: int, out: np.ndarray) 
     else:
         count_packed(words, start, window, count, nlev, bits, stream.height, stream.file_width,
                      stream.width, stream.col_offset, out)
+    if stream.rows == "top-down":  # the kernels read stored row r as image row H - 1 - r: turn them upright
+        out[...] = out[:, ::-1].copy()
     return out

@@ -2,8 +2,9 @@
 
 Every subcommand prints ``--help`` with units and defaults.  Spike files are
 ``.dat`` (no header: give ``--height/--width``, or keep a ``NAME.json`` with
-``{"height":…, "width":…, "cfa":…}`` beside ``NAME.dat``), ``.npy`` or ``.npz`` (``--key`` names the
-``.npz`` array, ``--axes HWT`` reads planes-last arrays such as SpikingSIM's).
+``{"height":…, "width":…, "cfa":…}`` beside ``NAME.dat``; ``--rows top-down`` for files that store their
+rows top-down), ``.npy`` or ``.npz`` (``--key`` names the ``.npz`` array, ``--axes HWT`` reads planes-last
+arrays such as SpikingSIM's).  ``docs/inputs.md`` names the options for each toolkit's layout.
 """
 
 from __future__ import annotations
@@ -170,6 +171,38 @@ def _check_output_dir(path: Path | None, flag: str) -> None:
     _check_folder_can_exist(path, flag, path, new=True)
 
 
+def _hot_pixel_option(value):
+    """``--hot-pixels``: ``auto``/``off`` (None returned) or a map file (its path, checked to exist)."""
+    if value is None or value in ("auto", "off"):
+        return None
+    path = Path(value)
+    if path.suffix.lower() != ".npz":
+        raise CliError(f"--hot-pixels must be auto, off or a map .npz (spikeref calibrate); got {value!r}")
+    if not path.is_file():
+        raise CliError(f"--hot-pixels {value}: no such file (make one with spikeref calibrate DARK -o {value})")
+    return path
+
+
+def _hot_pixel_map(path, stream):
+    """The map of ``--hot-pixels MAP.npz`` for ``stream`` (its size checked), or None."""
+    if path is None:
+        return None
+    from spikeref.hot_pixels import load_hot_pixel_map
+
+    try:
+        return load_hot_pixel_map(path, (stream.height, stream.width))
+    except ValueError as exc:
+        raise CliError(f"--hot-pixels {exc}") from None
+
+
+def _say_hot_pixels(mask, source) -> None:
+    """One line when hot pixels are replaced: how many and from where."""
+    if mask is not None and mask.any():
+        where = f"from {source}" if source is not None else "found in the recording (--hot-pixels off keeps them)"
+        print(f"hot pixels: {int(mask.sum())} replaced by their same-colour neighbours in every window, {where}",
+              file=sys.stderr)
+
+
 def _check_seed(value) -> None:
     _check_int(value, "--seed", 0, "a whole number ≥ 0")
 
@@ -281,9 +314,14 @@ def _add_input_options(p: argparse.ArgumentParser, optional_file: bool = False) 
                    help="image width in pixels (.dat only; default from NAME.json, else 400)")
     p.add_argument("--file-width", type=int, default=None,
                    help="stored row width when rows are padded, e.g. 1024 for some 1000×1000 cameras")
+    p.add_argument("--rows", choices=["bottom-up", "top-down"], default=None,
+                   help=".dat only: the order the file stores the image rows in; bottom-up is the spike camera's "
+                        "(SpikeCV, Spike-Zoo), top-down SSL-CSC's simulated recordings (default from NAME.json, "
+                        "else bottom-up; docs/inputs.md)")
     p.add_argument("--cfa", default=None,
-                   help="Bayer pattern of the upright image: RGGB, BGGR, GRBG, GBRG, or 'mono' "
-                        "(default from NAME.json, else mono)")
+                   help="Bayer pattern of the upright image: RGGB, BGGR, GRBG, GBRG, 'mono', or 'auto' (read from "
+                        "the spikes: spikeref.cfa_detect; one line says what and how sure) (default from NAME.json, "
+                        "else mono; a pattern the data contradict gets one warning line)")
     p.add_argument("--rate-hz", type=float, default=None,
                    help="readout rate in planes per second (default 20000)")
     p.add_argument("--key", default=None,
@@ -294,6 +332,16 @@ def _add_input_options(p: argparse.ArgumentParser, optional_file: bool = False) 
                         "SpikingSIM's samples); `spikeref info FILE` prints the planes and size it reads")
 
 
+def _add_hot_pixel_option(p: argparse.ArgumentParser, command: str) -> None:
+    p.add_argument("--hot-pixels", default=None, metavar="auto|off|MAP.npz",
+                   help="pixels that fire far above their light at the same place in every window: auto ("
+                        f"{'the default but with --paper' if command == 'reconstruct' else 'default'}: found in the "
+                        "recording's first "
+                        "2000 planes and replaced in every window by the mean of their same-colour neighbours, "
+                        "before the denoiser and the alignment; not in the paper; spikeref.hot_pixels), off, or a "
+                        "map made from a dark recording by spikeref calibrate")
+
+
 def _check_input_options(args) -> None:
     """The numeric input options: a given 0 is refused, never read as "not given" (then from NAME.json)."""
     for name, flag in (("height", "--height"), ("width", "--width"), ("file_width", "--file-width")):
@@ -301,8 +349,13 @@ def _check_input_options(args) -> None:
     _check_float(getattr(args, "rate_hz", None), "--rate-hz")
 
 
-def open_input(args):
-    """Open the stream named by the parsed input options (sizes from the NAME.json sidecar if not given)."""
+def open_input(args, *, check_cfa: bool = True):
+    """Open the stream named by the parsed input options (sizes from the NAME.json sidecar if not given).
+
+    ``--cfa auto`` reads the pattern from the data; a given (or the sidecar's) pattern that the data contradict
+    gets one warning line (:func:`_check_cfa`).  ``check_cfa=False`` leaves both to the caller (``info``, which
+    decides from the counts it makes anyway); ``--cfa auto`` then opens the stream as mono.
+    """
     from spikeref.bayer import CFA_PATTERNS, validate_cfa
     from spikeref.io.dat import sidecar_path
     from spikeref.stream import open_spike_file
@@ -312,20 +365,109 @@ def open_input(args):
     if not path.exists():
         raise CliError(f"no such file: {path}")
     cfa = args.cfa
-    if cfa is not None and cfa.lower() != "mono":
+    auto = cfa is not None and cfa.lower() == "auto"
+    if auto:
+        cfa = "mono"  # the sidecar's pattern is not taken either: the data decide (below)
+    elif cfa is not None and cfa.lower() != "mono":
         try:
             validate_cfa(cfa)
         except ValueError:
-            raise CliError(f"--cfa {cfa}: not a colour pattern; give one of {', '.join(CFA_PATTERNS)} or mono") \
-                from None
+            raise CliError(f"--cfa {cfa}: not a colour pattern; give one of {', '.join(CFA_PATTERNS)} or mono "
+                           f"(or auto: read it from the data)") from None
+    _warn_options_not_applying(path, args)
     stream = open_spike_file(path, height=args.height, width=args.width, cfa=cfa,
-                             file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes)
+                             file_width=args.file_width, rate_hz=args.rate_hz, key=args.key, axes=args.axes,
+                             rows=getattr(args, "rows", None))
+    _warn_planes_last(stream, path, args)
+    if check_cfa:
+        _check_cfa(stream, args, auto)
     if path.suffix.lower() == ".dat" and (args.height is None or args.width is None) \
             and not sidecar_path(path).is_file():
         print(f"note: {path.name} has no {sidecar_path(path).name} beside it: read as "
               f"{stream.height}×{stream.width} {stream.cfa or 'mono'} (give --height/--width/--cfa if it is not)",
               file=sys.stderr)
     return stream
+
+
+def _cfa_source(args, stream) -> str:
+    """Where the pattern the stream was opened with came from, for the ``info`` line and the warning."""
+    from spikeref.io.dat import read_sidecar, sidecar_path
+
+    if args.cfa is not None:
+        return "as given"
+    path = Path(stream.path) if stream.path is not None else None
+    if path is not None and path.suffix.lower() == ".dat" and read_sidecar(path).get("cfa") is not None:
+        return f"from {sidecar_path(path).name}"
+    return "none given"
+
+
+def _cfa_contradiction(stream, args, guess) -> str:
+    """The one ``warning:`` line for a pattern whose green sites the data contradict."""
+    confident = f"detected {guess.pattern}, green sites confidence {guess.green_confidence:.2f}"
+    if stream.cfa is None:
+        return (f"warning: the spikes look like a Bayer mosaic ({confident}) but are read as mono; "
+                f"--cfa auto or --cfa {guess.pattern} reads them in colour")
+    where = {"main": "(0,0)/(1,1)", "anti": "(0,1)/(1,0)"}
+    given = f"--cfa {stream.cfa}" if args.cfa is not None else f"the cfa {stream.cfa} {_cfa_source(args, stream)}"
+    from spikeref.cfa_detect import green_diagonal
+
+    return (f"warning: {given} puts green at {where[green_diagonal(stream.cfa)]}, the spikes at "
+            f"{where[guess.green_diagonal]} ({confident}); going on with {stream.cfa} (--cfa auto uses the data's)")
+
+
+def _check_cfa(stream, args, auto: bool, guess=None):
+    """Read the CFA phase from the data once (``guess``: already read); ``--cfa auto`` uses it (one line on
+    stderr, and ``args.cfa`` becomes the pattern so that whatever opens the file again — Dask's workers, the
+    run record — opens it alike); a pattern the data contradict gets one ``warning:`` line.  Returns the guess
+    (``None`` for an odd size, which has no 2×2 cells)."""
+    from spikeref.cfa_detect import detect_cfa, green_sites_contradict
+
+    if stream.height % 2 or stream.width % 2:
+        if auto:
+            raise CliError(f"--cfa auto: a {stream.height}×{stream.width} image has no whole 2×2 cells; give "
+                           f"--cfa mono")
+        return None
+    guess = detect_cfa(stream) if guess is None else guess
+    if auto:
+        stream.cfa = None if guess.pattern == "mono" else guess.pattern
+        args.cfa = guess.pattern
+        print(f"cfa auto: detected {guess.pattern}, confidence {guess.confidence:.2f} over {guess.planes} planes "
+              f"— {guess.describe()}", file=sys.stderr)
+    elif green_sites_contradict(stream.cfa, guess):
+        print(_cfa_contradiction(stream, args, guess), file=sys.stderr)
+    return guess
+
+
+def _warn_options_not_applying(path: Path, args) -> None:
+    """One ``warning:`` line for ``.dat`` options given for an array file (they would be ignored).
+
+    ``--key`` and ``--axes HWT`` for a ``.dat`` are refused by :func:`spikeref.stream.load_spikes`, not warned.
+    """
+    if path.suffix.lower() not in (".npy", ".npz"):
+        return
+    given = [flag for flag, name in (("--height", "height"), ("--width", "width"), ("--file-width", "file_width"),
+                                     ("--rows", "rows")) if getattr(args, name, None) is not None]
+    if given:
+        print(f"warning: {', '.join(given)} {'is' if len(given) == 1 else 'are'} for .dat files and ignored for "
+              f"{path.name}: an array file holds its own size, row 0 at the top", file=sys.stderr)
+
+
+def _warn_planes_last(stream, path: Path, args) -> None:
+    """One ``warning:`` line when an array file read planes first (``--axes THW``) looks planes-last.
+
+    The rule (:func:`spikeref.stream.planes_last_suspected`) reads the spikes: a pixel's spike train is
+    anticorrelated from one readout to the next (integrate and fire) and neighbouring pixels are not, so
+    the axis that behaves like time is found whatever the shape.
+    """
+    from spikeref.stream import planes_last_suspected
+
+    if path.suffix.lower() not in (".npy", ".npz") or args.axes != "THW" or stream.array is None:
+        return
+    if planes_last_suspected(stream.array):
+        t, h, w = stream.shape
+        print(f"warning: {path.name} looks stored planes-last: its last axis ({w} long) behaves like time "
+              f"(a pixel's spikes, anticorrelated from one readout to the next) and its first ({t}) does not; "
+              f"read as {t} planes of {h}×{w} it gives streaks: give --axes HWT", file=sys.stderr)
 
 
 def _axes_said(stream, args) -> str:
@@ -358,13 +500,31 @@ def _info_sample(t: int, plane_bytes: int) -> list[tuple[int, int]]:
 
 
 def cmd_info(args) -> int:
+    if not getattr(args, "json", False):
+        return _cmd_info(args, {})
+    import io
+    import json
+
+    facts: dict = {}
+    with contextlib.redirect_stdout(io.StringIO()):  # --json: the same facts, as one JSON object only
+        _cmd_info(args, facts)
+    print(json.dumps(facts, ensure_ascii=False))
+    return 0
+
+
+def _cmd_info(args, facts: dict) -> int:
+    """``spikeref info``: print the report and fill ``facts`` (``--json``'s object) with what it says."""
     from tqdm import tqdm
 
     from spikeref.accumulate import window_counts
     from spikeref.bayer import bayer_planes
+    from spikeref.cfa_detect import cfa_from_counts
     from spikeref.pipeline import ReconstructParams, frame_range
 
-    stream = open_input(args)  # a .dat is memory-mapped: nothing below reads spikes until the statistics
+    auto = args.cfa is not None and args.cfa.lower() == "auto"
+    # a .dat is memory-mapped: nothing below reads spikes until the statistics, which the CFA phase is read from
+    stream = open_input(args, check_cfa=False)
+    source = "read from the data below" if auto else _cfa_source(args, stream)
     t, h, w = stream.shape
     plane_bytes = -(-h * stream.file_width // 8)  # a .dat plane's bytes (whole there); an array's, rounded up
     print(f"file        {stream.path}")
@@ -373,8 +533,11 @@ def cmd_info(args) -> int:
     print(f"planes      {t}")
     stored = f" (stored rows {stream.file_width} wide)" if stream.file_width != w else ""
     print(f"size        {h} × {w} pixels{stored}")
+    if stream.is_packed:
+        print(f"rows        stored {stream.rows}" + (" (the spike camera's; --rows top-down if the image is "
+                                                        "upside down)" if stream.rows == "bottom-up" else ""))
     print(f"plane size  {plane_bytes} bytes packed")
-    print(f"cfa         {stream.cfa or 'mono'}")
+    print(f"cfa         {'auto' if auto else stream.cfa or 'mono'} ({source})")
     if _axes_said(stream, args):
         how = "planes first; --axes HWT reads a planes-last array" if args.axes == "THW" else "planes last"
         print(f"axes        {args.axes} ({how})")
@@ -405,12 +568,50 @@ def cmd_info(args) -> int:
             bar.update(n)
     rates = total / counted
     print(f"mean rate   {rates.mean():.5f} spikes/readout over all pixels")
+    guess, per_plane = None, None
     if h % 2 == 0 and w % 2 == 0:
+        guess = cfa_from_counts(total, counted)  # from the counts above: no plane is read twice
+        if auto:
+            stream.cfa = None if guess.pattern == "mono" else guess.pattern
+        else:
+            _check_cfa(stream, args, False, guess)  # a pattern the data contradict: one warning line
         names = list(stream.cfa) if stream.cfa else [""] * 4  # a mono sensor's 2×2 phases have no colour
         per_plane = bayer_planes(rates).mean(axis=(-1, -2))
         print("per Bayer plane (spikes/readout):" if stream.cfa else "per 2×2 phase (spikes/readout):")
         for pos, (name, r) in enumerate(zip(names, per_plane, strict=True)):
             print(f"  plane {pos} at ({pos // 2},{pos % 2}){' ' + name if name else ''}: {r:.5f}")
+        print(f"cfa detected {guess.pattern}, confidence {guess.confidence:.2f} — {guess.describe()}")
+    else:
+        print("cfa detected mono, confidence 0.00 — an odd height or width has no whole 2×2 cells")
+    hot, hot_planes = None, 0
+    if h % 2 == 0 and w % 2 == 0:  # as reconstruct and denoise find them (their first planes), within info's budget
+        from spikeref.hot_pixels import HotPixelParams, find_hot_pixels
+
+        hot_planes = max(1, min(HotPixelParams().planes, t, INFO_SAMPLE_BYTES // max(1, plane_bytes)))
+        hot = find_hot_pixels(stream, params=HotPixelParams(planes=hot_planes))
+        n_hot = int(hot.sum())
+        print(f"hot pixels  {n_hot} found in planes 0–{hot_planes - 1}" + (
+            f" ({100.0 * n_hot / hot.size:.3f} %; reconstruct and denoise replace them, --hot-pixels off keeps them)"
+            if n_hot else ""))
+    facts.update({
+        "hot_pixels": int(hot.sum()) if hot is not None else None, "hot_pixel_planes": hot_planes,
+        "file": str(stream.path) if stream.path is not None else None,
+        "file_size": Path(stream.path).stat().st_size if stream.path is not None and Path(stream.path).is_file()
+        else None,
+        "planes": t, "height": h, "width": w, "file_width": stream.file_width,
+        "rows": stream.rows if stream.is_packed else None, "plane_bytes": plane_bytes,
+        "cfa": "auto" if auto else stream.cfa or "mono",  # as given or from the sidecar, before any detection
+        "cfa_source": "auto" if auto else source, "cfa_used": stream.cfa or "mono",
+        "cfa_detected": guess.pattern if guess is not None else "mono",
+        "cfa_confidence": guess.confidence if guess is not None else 0.0,
+        "cfa_green_confidence": guess.green_confidence if guess is not None else 0.0,
+        "cfa_features": guess.as_dict() if guess is not None else None,
+        "axes": args.axes if _axes_said(stream, args) else None,
+        "rate_hz": stream.rate_hz, "duration_ms": stream.duration_s * 1000,
+        "frames": [avail.start, avail.stop], "frames_at": {"W": defaults.window, "K": defaults.K, "L": defaults.L},
+        "statistics_planes": counted, "mean_rate": float(rates.mean()),
+        "phase_rates": [float(r) for r in per_plane] if per_plane is not None else None,
+    })
     return 0
 
 
@@ -502,9 +703,16 @@ def cmd_denoise(args) -> int:
     _bundled_weights_by_default(args, args.accumulate)
     den = _load_denoiser(args.weights, accumulate=args.accumulate, mode=args.mode, lam=args.lam,
                          shrink=not args.no_shrink, guard=args.guard)
+    hot_map = _hot_pixel_option(args.hot_pixels)
+    hot = _hot_pixel_map(hot_map, stream)
+    if hot is None and args.hot_pixels != "off":
+        from spikeref.hot_pixels import find_hot_pixels
+
+        hot = find_hot_pixels(stream)
+    _say_hot_pixels(hot, hot_map)
     _compiling_note(args, f"denoise-{args.accumulate}")
     made = den.frames(stream, args.window, start=args.start + frames.start * args.window, count=len(frames),
-                      accumulate=args.accumulate)
+                      accumulate=args.accumulate, hot_pixels=hot)
     first = next(made, None)  # the generator's own checks (and the first frame) before any output is opened
     with _output_phase():
         with FrameSink(args.output, args.exr_dir, fps=args.fps, half=args.half) as sink, \
@@ -587,6 +795,9 @@ def cmd_reconstruct(args) -> int:
                                 ("demosaic", args.demosaic), ("accumulate", args.accumulate)) if v is not None}
     if args.no_denoiser:
         chosen["denoise"] = False
+    hot_map = _hot_pixel_option(args.hot_pixels)
+    if args.hot_pixels is not None:  # a map replaces the search; auto/off as given (the paper's preset: off)
+        chosen["hot_pixels"] = "off" if hot_map is not None else args.hot_pixels
     for value, flag, low in ((args.window, "-W/--window", 1), (args.K, "-K", 1), (args.L, "-L", 0)):
         _check_int(value, flag, low, f"a whole number ≥ {low}")
     if args.K % 2 == 0:
@@ -611,17 +822,18 @@ def cmd_reconstruct(args) -> int:
     if args.workers is not None or args.scheduler is not None:
         if args.profile:
             raise CliError("--profile times one process; run without --workers/--scheduler")
-        return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink)
+        return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map)
     stream = open_input(args)
     den = _load_denoiser(args.weights, accumulate=params.accumulate, mode=args.mode, shrink=shrink,
                          guard=guard) if params.denoise else None
-    rec = Reconstructor(stream, params, den)
+    rec = Reconstructor(stream, params, den, hot_pixels=_hot_pixel_map(hot_map, stream))
     frames = _frames_in(args, rec.frames_available, params)
     a, b = frames.start, frames.stop
     done = set()
     if exr_dir is not None:
         with _output_phase():
-            _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink), args.resume)
+            _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink, rec.hot_pixel_mask,
+                                                      hot_map), args.resume)
     if args.resume:
         done, bad = frames_on_disk(exr_dir, frames, stream.height, stream.width)
         if bad:
@@ -640,6 +852,7 @@ def cmd_reconstruct(args) -> int:
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
           f"{_axes_said(stream, args)} {stream.cfa or 'mono'} → frames {a}:{b} at {fps_out:g} FPS ({', '.join(parts)})"
           + (f"; {len(done)} already written" if done else ""), file=sys.stderr)
+    _say_hot_pixels(rec.hot_pixel_mask, hot_map)
     _compiling_note(args, f"reconstruct-{preset}")
     written = len(done)  # whole EXR frames of a:b in exr_dir, for the line of an interrupted or failed run
     t_loop = time.perf_counter()
@@ -671,15 +884,24 @@ def cmd_reconstruct(args) -> int:
     return 0
 
 
-def _run_record(stream, params, args, guard, shrink) -> dict:
-    """How this run makes its frames, for the EXR folder's record (``--resume`` refuses other settings)."""
+def _run_record(stream, params, args, guard, shrink, hot_mask=None, hot_map=None) -> dict:
+    """How this run makes its frames, for the EXR folder's record (``--resume`` refuses other settings).
+
+    The hot pixels are recorded by what was replaced (named only when some were), not by the option, so a
+    folder of frames made before the option existed, of a recording without hot pixels, resumes as before.
+    """
     from dataclasses import asdict
 
     path = Path(stream.path) if stream.path is not None else None
     record = {"input": {"name": path.name if path else None,
                         "bytes": path.stat().st_size if path and path.is_file() else None,
                         "planes": len(stream), "height": stream.height, "width": stream.width, "cfa": stream.cfa},
-              "params": asdict(params)}
+              "params": {k: v for k, v in asdict(params).items() if k != "hot_pixels"}}
+    if hot_mask is not None and hot_mask.any():
+        record["hot_pixels"] = {"replaced": int(hot_mask.sum()),
+                                "from": str(hot_map) if hot_map is not None else "the recording"}
+    if stream.rows == "top-down":  # named only when not the default, so records of bottom-up runs stay as they were
+        record["input"]["rows"] = stream.rows
     if params.denoise:
         record["denoiser"] = {"weights": str(args.weights), "guard": guard, "shrink": shrink}
     return record
@@ -706,7 +928,7 @@ def _check_resume_record(exr_dir, record, resume: bool) -> None:
     write_run_record(exr_dir, record)
 
 
-def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
+def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map) -> int:
     import time
 
     from spikeref.distributed import ChunkError, assemble_video, reconstruct_distributed
@@ -729,10 +951,17 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
     frames = _frames_in(args, frame_range(len(stream), params.window, params.K, params.L), params)
     if params.denoise:  # refused here, not on every worker
         _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
+    hot = _hot_pixel_map(hot_map, stream)
+    if hot is None:  # found once here, in the recording's first planes, and sent to every chunk
+        from spikeref.hot_pixels import find_hot_pixels
+
+        hot = find_hot_pixels(stream) if params.hot_pixels == "auto" else \
+            np.zeros((stream.height, stream.width), dtype=bool)
+    _say_hot_pixels(hot, hot_map)
     with _output_phase():
-        _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink), args.resume)
+        _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink, hot, hot_map), args.resume)
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
-                   "rate_hz": args.rate_hz, "key": args.key, "axes": args.axes}
+                   "rate_hz": args.rate_hz, "key": args.key, "axes": args.axes, "rows": args.rows}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"
     print(f"{stream.path.name}: frames {frames.start}:{frames.stop} in chunks of {args.chunk_frames} on {where}"
           f" → {exr_dir}", file=sys.stderr)
@@ -741,7 +970,7 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink) -> int:
         summaries = reconstruct_distributed(stream.path, exr_dir, params, open_kwargs=open_kwargs,
                                             weights=args.weights, frames=frames, chunk_frames=args.chunk_frames,
                                             workers=args.workers, scheduler=args.scheduler, resume=args.resume,
-                                            half=args.half, guard=guard, shrink=shrink)
+                                            half=args.half, guard=guard, shrink=shrink, hot_pixels=hot)
     except (KeyboardInterrupt, OSError, ChunkError) as exc:  # frames already written stay: --resume goes on
         raise _stopped(args, exc, exr_dir, frames, _frames_written(exr_dir, frames)) from exc
     wall = time.perf_counter() - t0
@@ -928,8 +1157,8 @@ def cmd_train(args) -> int:
         raise CliError(f"training needs PyTorch: pip install 'spikeref[train]' ({exc})") from None
     from spikeref.stream import open_spike_file
 
-    streams = [open_spike_file(path, height=args.height, width=args.width, file_width=args.file_width)
-               for path in args.data]
+    streams = [open_spike_file(path, height=args.height, width=args.width, file_width=args.file_width,
+                               rows=args.rows) for path in args.data]
     cfg = TrainConfig(width=args.channels, steps=args.steps, batch=args.batch, patch=args.patch, lr=args.lr,
                       window_min=args.window_min, window_max=args.window_max,
                       input_domain=args.input_domain, checkpoint_every=args.checkpoint_every,
@@ -1058,6 +1287,41 @@ def cmd_noise_check(args) -> int:
     return 0
 
 
+# --------------------------------------------------------------------------- calibrate
+#: ``calibrate``'s least excess over the same-colour reference, spikes per readout: in a dark recording no scene can
+#: mimic a defect, so the statistical test (6 σ in the stretch, half the blocks) decides, down to a weak leak.
+CALIBRATE_MIN_EXCESS = 0.02
+
+
+def cmd_calibrate(args) -> int:
+    """``spikeref calibrate DARK -o map.npz``: the hot pixels of a (dark) recording, as a map."""
+    from spikeref.hot_pixels import HotPixelParams, find_hot_pixels, hot_pixel_excess, save_hot_pixel_map
+
+    _check_output_file(args.output, "-o/--output", (".npz",), "hot-pixel map")
+    _check_int(args.planes, "--planes", 8, "a number of readouts ≥ 8")
+    stream = open_input(args)
+    if stream.height % 2 or stream.width % 2:
+        raise CliError(f"the recording must have even height and width (2×2 phases); got {stream.height}×"
+                       f"{stream.width}")
+    if len(stream) < 8:
+        raise CliError(f"{len(stream)} planes: too few to tell a hot pixel (at least 8)")
+    params = HotPixelParams(planes=args.planes, min_excess=CALIBRATE_MIN_EXCESS)
+    mask = find_hot_pixels(stream, params=params)
+    planes = min(args.planes, len(stream))
+    excess = hot_pixel_excess(stream, params=params)["excess"]
+    with _output_phase():
+        save_hot_pixel_map(args.output, mask, planes=planes, height=stream.height, width=stream.width,
+                           source=str(stream.path.name if stream.path else ""))
+    n = int(mask.sum())
+    share = 100.0 * n / mask.size
+    print(f"{stream.path.name if stream.path else 'stream'}: {n} hot pixels ({share:.3f} % of {mask.size}) in "
+          f"{planes} planes" + (f"; their excess over their colour {float(excess[mask].min()):.2f}–"
+                                f"{float(excess[mask].max()):.2f} spikes per readout" if n else ""))
+    print(f"wrote {args.output}: use it with spikeref reconstruct/denoise --hot-pixels {args.output}",
+          file=sys.stderr)
+    return 0
+
+
 # ------------------------------------------------------------------------------ golden
 def cmd_golden(args) -> int:
     from spikeref import golden_check as gc
@@ -1111,11 +1375,16 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Print what a spike file holds: planes, size, duration (at the readout "
                                    "rate), and the mean firing rate (spikes per readout, 0…1) per Bayer plane. "
                                    "The layout comes from the file size alone; the rates from a bounded sample "
-                                   "of planes spread over the file, or from every plane with --stats.")
+                                   "of planes spread over the file, or from every plane with --stats; the CFA "
+                                   "phase (which 2×2 sites are green, red, blue, or mono) from the same counts.")
     _add_input_options(p, optional_file=True)
     p.add_argument("--stats", action="store_true",
                    help="count every plane (streamed, with a progress bar) instead of a sample of at most "
                         f"{INFO_SAMPLE_PLANES} planes / {INFO_SAMPLE_BYTES >> 20} MiB spread over the file")
+    p.add_argument("--json", action="store_true",
+                   help="print one JSON object and nothing else on stdout: height, width, planes, cfa (as given or "
+                        "from NAME.json; mono for none), cfa_detected (RGGB, BGGR, GRBG, GBRG or mono, read from the "
+                        "counted planes), cfa_confidence (0-1), rate_hz, duration_ms, file, phase_rates, ...")
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("baseline", help="TFP / TFI / TFSTP reconstruction to MP4 (+ EXR frames)",
@@ -1153,6 +1422,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mode", choices=["visible", "blind", "mixed"], default="visible",
                    help="visible: one network pass; blind: Eq. 10-11, 16 passes; mixed: (D + λf)/(1 + λ)")
     p.add_argument("--lam", type=float, default=2.0, help="λ of the mixed mode")
+    _add_hot_pixel_option(p, "denoise")
     p.add_argument("--guard", choices=["sure", "off"], default="sure",
                    help="sure: blend the network's output with its input by Stein's unbiased risk estimate, "
                         "per pixel, from the data's own noise level (one more network pass; not in the paper; "
@@ -1225,6 +1495,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
+    _add_hot_pixel_option(p, "reconstruct")
     p.add_argument("--flow-frames", choices=["denoised", "smoothed"], default=None,
                    help="what each step's flow is estimated on: smoothed (default; a Gaussian of σ = 1 "
                         "Bayer-plane pixel on the raw frames, one denoiser pass per frame, not in the paper) or "
@@ -1362,6 +1633,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--height", type=int, default=None, help="image height of .dat files without NAME.json")
     p.add_argument("--width", type=int, default=None, help="image width of .dat files without NAME.json")
     p.add_argument("--file-width", type=int, default=None, help="stored row width of padded .dat rows")
+    p.add_argument("--rows", choices=["bottom-up", "top-down"], default=None,
+                   help="the order .dat files store the image rows in (default from NAME.json, else bottom-up, "
+                        "the spike camera's; docs/inputs.md)")
     p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("simulate", help="simulate a scene (TOML) into a .dat spike file, with ground truth",
@@ -1407,6 +1681,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="leave out pixels below this rate, spikes/readout (default: 20 spikes in the span)")
     p.add_argument("--plot", type=Path, default=None, help="also write the curve as a PNG (needs spikeref[plot])")
     p.set_defaults(func=cmd_noise_check)
+
+    p = sub.add_parser("calibrate", help="a hot-pixel map from a dark recording, for --hot-pixels MAP.npz",
+                       description="Find the hot pixels of a sensor in a recording made with the lens covered (or "
+                                   "of any static scene): pixels that fire far above their same-colour neighbours "
+                                   "in every block of the stretch and alone (spikeref.hot_pixels). Writes a map "
+                                   "that reconstruct and denoise apply with --hot-pixels MAP.npz.",
+                       formatter_class=_DefaultsHelpFormatter)
+    _add_input_options(p)
+    p.add_argument("-o", "--output", type=Path, required=True, help="the map to write (.npz)")
+    p.add_argument("--planes", type=int, default=20000,
+                   help="readouts read from the start of the recording (at most; 20000 = 1 s at 20 kHz)")
+    p.set_defaults(func=cmd_calibrate)
 
     p = sub.add_parser("golden", help="list the golden cases, check a port's outputs against them, export "
                                       "their inputs for a port without Python",

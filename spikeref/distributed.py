@@ -27,6 +27,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from spikeref.pipeline import ReconstructParams
 
 __all__ = ["Chunk", "ChunkError", "plan_chunks", "reconstruct_chunk", "reconstruct_distributed", "assemble_video"]
@@ -129,11 +131,14 @@ def _numba_threads() -> int:
 
 
 def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, chunk: Chunk, exr_dir: str,
-                      weights=None, half: bool = False, skip=(), guard: str = "sure", shrink: bool = True) -> dict:
+                      weights=None, half: bool = False, skip=(), guard: str = "sure", shrink: bool = True,
+                      hot_pixels=None) -> dict:
     """Reconstruct one chunk and write its EXR frames; runs on a worker (or anywhere).
 
     ``weights``, ``guard`` and ``shrink`` make the denoiser as :meth:`Denoiser.load` does (the
-    bundled network for ``params.accumulate`` when ``weights`` is None).
+    bundled network for ``params.accumulate`` when ``weights`` is None).  ``hot_pixels`` is a map to
+    replace (``(H, W) bool``); without one, ``params.hot_pixels="auto"`` finds them in the whole
+    recording's first planes, as a single run does, so every chunk replaces the same pixels.
 
     ``skip`` lists frames of the chunk already on disk (``--resume``: the caller vetted them
     with :func:`spikeref.render.frames_on_disk`, so the task reads no EXR file).
@@ -147,6 +152,7 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     """
     import resource
 
+    from spikeref.hot_pixels import find_hot_pixels
     from spikeref.stream import open_spike_file
     from spikeref.io.exr import write_exr
     from spikeref.pipeline import Reconstructor
@@ -161,10 +167,13 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     if todo:
         stream = open_spike_file(path, **open_kwargs)
         stop_plane = min(chunk.stop_plane, len(stream))  # a charge's margin may reach past the end
+        if hot_pixels is None:  # the recording's, not the chunk's (a chunk's first planes are elsewhere)
+            hot_pixels = find_hot_pixels(stream) if params.hot_pixels == "auto" else \
+                np.zeros((stream.height, stream.width), dtype=bool)
         view = stream.slice(chunk.first_plane, stop_plane)
         shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
         den = _denoiser(weights, params.mode, params.accumulate, guard, shrink) if params.denoise else None
-        rec = Reconstructor(view, params, den)
+        rec = Reconstructor(view, params, den, hot_pixels=hot_pixels)
         for a, b in todo:
             for frame in rec.frames(a - shift, b - shift):
                 write_exr(out / exr_name(frame.index + shift), frame.rgb, half=half)
@@ -191,7 +200,7 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
                             weights=None, frames: range | None = None, chunk_frames: int = 64,
                             workers: int | None = None, scheduler: str | None = None, client=None,
                             resume: bool = False, half: bool = False, progress: bool = True,
-                            guard: str = "sure", shrink: bool = True) -> list[dict]:
+                            guard: str = "sure", shrink: bool = True, hot_pixels=None) -> list[dict]:
     """Reconstruct ``frames`` of the spike file ``path`` into ``exr_dir`` on a Dask cluster.
 
     Parameters
@@ -205,7 +214,9 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         defaults, which go beyond the paper where ``docs/results.md`` measured a gain;
         ``ReconstructParams.paper()`` for the paper's procedure).
     open_kwargs : dict
-        ``height, width, cfa, file_width, rate_hz, key, axes`` for :func:`spikeref.stream.open_spike_file`.
+        ``height, width, cfa, file_width, rate_hz, key, axes, rows`` for :func:`spikeref.stream.open_spike_file`
+        (every worker opens the file with them: a ``.dat`` stored top-down needs ``rows="top-down"`` here or in
+        its sidecar).
     weights : path or bundled name, optional
         Denoiser weights (default: the bundled network for ``params.accumulate``; none is loaded with
         ``params.denoise=False``).
@@ -227,6 +238,10 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         An existing client (neither ``workers`` nor ``scheduler``).
     resume : bool
         Skip frames whose EXR exists.
+    hot_pixels : ndarray ``(H, W) bool``, optional
+        A map of the hot pixels to replace (``spikeref calibrate``); without one, ``params.hot_pixels="auto"``
+        finds them here, once, in the recording's first planes (as a single run does) and every chunk
+        replaces the same ones.
 
     Returns
     -------
@@ -240,6 +255,7 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         When a chunk fails on a worker (the message names it); other chunks are cancelled,
         frames already written stay (rerun with ``resume=True``).
     """
+    from spikeref.hot_pixels import find_hot_pixels
     from spikeref.stream import open_spike_file
     from spikeref.pipeline import Reconstructor
     from spikeref.render import frames_on_disk
@@ -253,7 +269,10 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         raise ValueError(f"workers must be a positive integer; got {workers!r}")
     path = Path(path).resolve()
     stream = open_spike_file(path, **open_kwargs)  # errors about the input surface here, before any task
-    avail = Reconstructor(stream, params, denoiser=lambda p: p).frames_available
+    if hot_pixels is None:
+        hot_pixels = find_hot_pixels(stream) if params.hot_pixels == "auto" else \
+            np.zeros((stream.height, stream.width), dtype=bool)
+    avail = Reconstructor(stream, params, denoiser=lambda p: p, hot_pixels=hot_pixels).frames_available
     frames = avail if frames is None else frames
     if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
         raise ValueError(f"frames {frames.start}:{frames.stop} are outside this stream's frames "
@@ -272,14 +291,15 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         client, own = _make_client(workers, scheduler)
     try:
         return _run(client, chunks, str(path), open_kwargs, params, str(exr_dir), weights, half, done, progress,
-                    (guard, shrink))
+                    (guard, shrink), hot_pixels)
     finally:
         if own is not None:
             client.close()
             own.close()
 
 
-def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done, progress, options) -> list[dict]:
+def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done, progress, options,
+         hot_pixels) -> list[dict]:
     from dask.distributed import as_completed
     from tqdm import tqdm
 
@@ -290,7 +310,8 @@ def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done
     for c in chunks:
         skip = tuple(k for k in range(c.start, c.stop) if k in done)
         f = client.submit(reconstruct_chunk, path, open_kwargs, params, c, exr_dir, weights, half, skip, *options,
-                          key=f"spikeref-chunk-{c.index}-{os.getpid()}-{time.time_ns()}", pure=False)
+                          hot_pixels=hot_pixels, key=f"spikeref-chunk-{c.index}-{os.getpid()}-{time.time_ns()}",
+                          pure=False)
         submitted[f.key] = c
         futures.append(f)
     out = []

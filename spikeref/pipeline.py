@@ -89,6 +89,7 @@ from spikeref.align import AlignParams, align
 from spikeref.align_noise import estimate_noise, estimate_noise_correlation, local_noise
 from spikeref.bayer import bayer_mosaic, bayer_planes, luma
 from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, window_charge
+from spikeref.hot_pixels import HotPixelRepair, find_hot_pixels
 from spikeref.compose import RESAMPLES, composed_warp, path_table
 from spikeref.demosaic import DEMOSAICS, demosaic
 from spikeref.denoise.blindspot import MODES
@@ -138,6 +139,8 @@ DEFAULT_ACCUMULATE = "charge"
 #: blind-spot bookkeeping), the alignment (flow frames and the HDR+ search), the warps (Eq. 14–15
 #: or the composed warp), the demosaic Ψ, and writing the frame (timed by the caller, e.g. the CLI).
 STAGES = ("accumulate", "network", "guard", "align", "warp", "demosaic", "write")
+#: ``ReconstructParams.hot_pixels``: found in the recording and replaced (``"auto"``), or left in.
+HOT_PIXELS = ("auto", "off")
 
 
 @dataclass(frozen=True)
@@ -205,6 +208,13 @@ class ReconstructParams:
         paper: the stage ladder's "no denoiser" rung, a speed option (:meth:`fastest`).  With
         window charges the network buys little (``docs/results.md``, "The denoiser's share of
         the time"), at half the frame time.
+    hot_pixels : {"auto", "off"}
+        ``"auto"`` (default): the hot pixels found in the recording itself
+        (:func:`spikeref.hot_pixels.find_hot_pixels`, on its first planes) are replaced in every window by
+        the mean of their same-colour neighbours before the denoiser, the alignment and the warp read it;
+        ``"off"``: windows as accumulated (the paper's, and :meth:`paper`'s).  A map given to
+        :class:`Reconstructor` (``hot_pixels=``, e.g. from ``spikeref calibrate``) replaces the search.
+        Not in the paper.
     """
 
     window: int = 10
@@ -219,6 +229,7 @@ class ReconstructParams:
     accumulate: str = DEFAULT_ACCUMULATE
     resample: str = "window"
     denoise: bool = True
+    hot_pixels: str = "auto"
 
     def __post_init__(self):
         for name, low in (("window", 1), ("K", 1), ("L", 0)):
@@ -243,6 +254,8 @@ class ReconstructParams:
             raise ValueError(f"resample must be one of {', '.join(RESAMPLES)}; got {self.resample!r}")
         if not isinstance(self.denoise, (bool, np.bool_)):
             raise TypeError(f"denoise must be True or False; got {self.denoise!r}")
+        if self.hot_pixels not in HOT_PIXELS:
+            raise ValueError(f"hot_pixels must be one of {', '.join(HOT_PIXELS)}; got {self.hot_pixels!r}")
 
     @property
     def half(self) -> int:
@@ -265,7 +278,8 @@ class ReconstructParams:
         the denoised frames, the HDR+ search without the noise-aware preference.  Pair it with
         ``Denoiser(guard="off", shrink=False)`` for the paper's ``D``; ``kw`` sets any other field.
         """
-        base = dict(warp="progressive", flow_frames="denoised", align_params=AlignParams(), accumulate="count")
+        base = dict(warp="progressive", flow_frames="denoised", align_params=AlignParams(), accumulate="count",
+                    hot_pixels="off")
         base.update(kw)
         return cls(**base)
 
@@ -461,9 +475,15 @@ class Reconstructor:
         ``D``; default the bundled weights (:meth:`Denoiser.load`).  A callable takes Bayer
         planes ``(4, h, w) float32`` and returns the same shape.  Not used (nothing is loaded)
         with ``params.denoise=False``.
+    hot_pixels : ndarray ``(H, W) bool``, optional
+        The hot pixels to replace in every window (a calibration map,
+        :func:`spikeref.hot_pixels.load_hot_pixel_map`), whatever ``params.hot_pixels`` says; by default
+        they are found in the stream with ``params.hot_pixels="auto"``.  :attr:`hot_pixel_mask` holds
+        the map in use (``None``: none replaced).
     """
 
-    def __init__(self, stream: SpikeStream, params: ReconstructParams | None = None, denoiser=None):
+    def __init__(self, stream: SpikeStream, params: ReconstructParams | None = None, denoiser=None,
+                 hot_pixels=None):
         if not isinstance(stream, SpikeStream):
             raise TypeError(f"stream must be a SpikeStream (see spikeref.read_dat); got {type(stream).__name__}")
         self.stream = stream
@@ -490,6 +510,18 @@ class Reconstructor:
         self._open: list[list] = []  # [stage, start, seconds of stages nested in it]
         self._denoise = self._make_denoiser(denoiser)
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
+        if hot_pixels is not None:
+            mask = np.asarray(hot_pixels)
+            if mask.dtype != bool or mask.shape != (stream.height, stream.width):
+                raise ValueError(f"hot_pixels must be a ({stream.height}, {stream.width}) bool map of the stream; "
+                                 f"got {mask.dtype} of shape {mask.shape}")
+        elif p.hot_pixels == "auto":  # once, before any frame (as loading the weights: not in the stage timings)
+            mask = find_hot_pixels(stream)
+        else:
+            mask = None
+        #: the hot pixels replaced in every window ``(H, W) bool``, or None (:mod:`spikeref.hot_pixels`)
+        self.hot_pixel_mask = mask if mask is not None and mask.any() else None
+        self._repair = HotPixelRepair(self.hot_pixel_mask) if self.hot_pixel_mask is not None else None
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray] | None:
         """``D`` as the rings call it, or None with ``denoise=False`` (D is the identity: no network, no weights)."""
@@ -605,6 +637,7 @@ class _State:
 
     # step 0 -------------------------------------------------------------
     def window_counts(self, k: int) -> np.ndarray:
+        """Window ``k``'s charge or count as Bayer planes ``(4, h, w)``, its hot pixels replaced (float32 then)."""
         if k not in self.counts:
             with self.timed("accumulate"):
                 if self.p.accumulate == "charge":
@@ -612,8 +645,15 @@ class _State:
                 else:
                     c = window_counts(self.stream, self.p.window, start=k * self.p.window, count=1)[0]
                     self.stream.release(k * self.p.window, self.p.window)
-                    self.counts[k] = bayer_planes(c)
+                    self.counts[k] = self._repaired(bayer_planes(c))
         return self.counts[k]
+
+    def _repaired(self, planes: np.ndarray) -> np.ndarray:
+        """``planes`` with the hot pixels replaced (:class:`~spikeref.hot_pixels.HotPixelRepair`), or as they are."""
+        repair = self.rec._repair
+        if repair is None:
+            return planes
+        return repair.planes(planes.astype(np.float32))  # counts become float32, as charges are
 
     def _charge_block(self, k: int) -> None:
         """The charges (:func:`spikeref.charge.window_charge`) of windows ``k …`` (up to
@@ -623,7 +663,8 @@ class _State:
         count = min(WINDOWS_PER_CALL, len(self.stream) // w - k)
         charge = window_charge(self.stream, w, start=k * w, count=count)
         for i in range(count):
-            self.counts.setdefault(k + i, bayer_planes(charge[i]))
+            if k + i not in self.counts:
+                self.counts[k + i] = self._repaired(bayer_planes(charge[i]))
 
     def planes(self, step: int, k: int) -> np.ndarray:
         """``I_l(k)`` ``(4, h, w) float32``."""

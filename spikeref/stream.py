@@ -18,10 +18,11 @@ from typing import Iterator
 import numpy as np
 
 from spikeref.bayer import validate_cfa
-from spikeref.io.dat import check_spikes, map_dat, plane_nbytes, read_sidecar, unpack_planes
+from spikeref.io.dat import check_rows, check_spikes, map_dat, plane_nbytes, read_sidecar, sidecar_path, unpack_planes
 from spikeref.io.npz import NUMPY_READ_ERRORS
 
-__all__ = ["SpikeStream", "as_stream", "read_dat", "load_spikes", "open_spike_file", "NPZ_SPIKE_KEYS", "ARRAY_AXES"]
+__all__ = ["SpikeStream", "as_stream", "read_dat", "load_spikes", "open_spike_file", "NPZ_SPIKE_KEYS", "ARRAY_AXES",
+           "planes_last_suspected"]
 
 
 class SpikeStream:
@@ -40,6 +41,10 @@ class SpikeStream:
         Readout rate in planes per second.
     path : Path or None
         The file the stream was read from, if any.
+    rows : str or None
+        For packed ``.dat`` bytes, the order they store the rows in: ``"bottom-up"`` (the spike
+        camera's) or ``"top-down"``; ``None`` for an in-memory array (upright).  Windows and counts
+        are upright either way.
     """
 
     def __init__(
@@ -54,9 +59,11 @@ class SpikeStream:
         cfa: str | None,
         rate_hz: float,
         path: Path | None,
+        rows: str | None = None,
     ):
         if (array is None) == (packed is None):
             raise ValueError("exactly one of array and packed must be given")
+        rows = None if packed is None else check_rows("bottom-up" if rows is None else rows)
         if cfa is not None:
             cfa = validate_cfa(cfa)
         if not np.isfinite(rate_hz) or rate_hz <= 0:
@@ -70,6 +77,7 @@ class SpikeStream:
         self.cfa = cfa
         self.rate_hz = float(rate_hz)
         self.path = Path(path) if path is not None else None
+        self.rows = rows
 
     # ------------------------------------------------------------------ build
     @classmethod
@@ -85,9 +93,14 @@ class SpikeStream:
     @classmethod
     def from_packed(
         cls, packed, height: int, width: int, file_width: int | None = None, col_offset: int = 0,
-        cfa: str | None = None, rate_hz: float = 20000.0, path=None,
+        cfa: str | None = None, rate_hz: float = 20000.0, path=None, rows: str = "bottom-up",
     ):
-        """Wrap packed ``.dat`` bytes ``(T, H*Wf/8) uint8`` (a memmap or an array)."""
+        """Wrap packed ``.dat`` bytes ``(T, H*Wf/8) uint8`` (a memmap or an array).
+
+        ``rows`` is the order the bytes store the rows in: ``"bottom-up"`` (the spike camera's,
+        default) or ``"top-down"``.
+        """
+        rows = check_rows(rows)
         file_width = width if file_width is None else file_width
         nbytes = plane_nbytes(height, file_width)
         packed = np.asarray(packed) if not isinstance(packed, np.memmap) else packed
@@ -95,7 +108,7 @@ class SpikeStream:
             raise ValueError(f"packed must be uint8 of shape (T, {nbytes}); got {packed.dtype} {packed.shape}")
         return cls(
             array=None, packed=packed, height=height, width=width, file_width=file_width,
-            col_offset=col_offset, cfa=cfa, rate_hz=rate_hz, path=path,
+            col_offset=col_offset, cfa=cfa, rate_hz=rate_hz, path=path, rows=rows,
         )
 
     # ------------------------------------------------------------- properties
@@ -130,7 +143,7 @@ class SpikeStream:
 
     def __repr__(self) -> str:
         where = f" from {self.path.name}" if self.path else ""
-        kind = "packed" if self.is_packed else "array"
+        kind = f"packed, rows {self.rows}" if self.is_packed else "array"
         return (
             f"SpikeStream({len(self)} planes of {self.height}×{self.width}, cfa={self.cfa}, "
             f"{self.rate_hz:g} Hz, {kind}{where})"
@@ -157,7 +170,7 @@ class SpikeStream:
             return self._array[start : start + length]
         return unpack_planes(
             np.asarray(self._packed[start : start + length]),
-            self.height, self.width, self.file_width, self.col_offset,
+            self.height, self.width, self.file_width, self.col_offset, self.rows,
         )
 
     def slice(self, start: int, stop: int | None = None) -> "SpikeStream":
@@ -174,7 +187,7 @@ class SpikeStream:
             array=self._array[start:stop] if self._array is not None else None,
             packed=self._packed[start:stop] if self._packed is not None else None,
             height=self.height, width=self.width, file_width=self.file_width, col_offset=self.col_offset,
-            cfa=self.cfa, rate_hz=self.rate_hz, path=self.path,
+            cfa=self.cfa, rate_hz=self.rate_hz, path=self.path, rows=self.rows,
         )
 
     def release(self, start: int, length: int) -> None:
@@ -231,6 +244,7 @@ def read_dat(
     file_width: int | None = None,
     col_offset: int = 0,
     rate_hz: float = 20000.0,
+    rows: str = "bottom-up",
 ):
     """Memory-map a ``.dat`` spike file as a :class:`~spikeref.stream.SpikeStream`.
 
@@ -247,13 +261,19 @@ def read_dat(
         columns ``[col_offset, col_offset + width)`` are kept.
     rate_hz : float
         Readout rate, planes per second (20 000 for the spike camera).
+    rows : {"bottom-up", "top-down"}
+        The order the file stores the rows in: ``"bottom-up"`` (the spike camera's, default: stored
+        row ``r`` is image row ``H - 1 - r``) or ``"top-down"`` (stored row ``r`` is image row ``r``).
+        The stream is upright either way.  ``docs/inputs.md`` names each toolkit's order.
 
     Raises
     ------
     FileNotFoundError, ValueError
-        The message names the file, the expected plane size and the size found.
+        The message names the file, the expected plane size and the size found; ``rows`` other
+        than the two orders is a ValueError naming it.
     """
     path = Path(path)
+    rows = check_rows(rows)
     file_width = width if file_width is None else file_width
     if file_width < width + col_offset or col_offset < 0:
         raise ValueError(
@@ -269,6 +289,7 @@ def read_dat(
         cfa=cfa,
         rate_hz=rate_hz,
         path=path,
+        rows=rows,
     )
 
 
@@ -302,6 +323,70 @@ NPZ_SPIKE_KEYS = ("spikes", "spk")
 ARRAY_AXES = ("THW", "HWT")
 
 
+#: :func:`planes_last_suspected` judges an axis only when it has at least this many entries …
+PLANES_LAST_MIN_LENGTH = 32
+#: … and suspects planes last when the last axis's lag-1 correlation is at most this (and twice the first's).
+PLANES_LAST_CORRELATION = -0.03
+
+
+def _lag1_correlation(spikes, axis: int, long: int = 512, short: int = 32) -> float | None:
+    """The lag-1 correlation of 0/1 ``spikes`` along ``axis``, over a centred block (at most ``long`` entries
+    along ``axis``, ``short`` along the others), each line centred on its even and its odd entries apart;
+    None when the axis is shorter than :data:`PLANES_LAST_MIN_LENGTH` or the block is constant."""
+    moved = np.moveaxis(spikes, axis, -1)
+    if moved.shape[-1] < PLANES_LAST_MIN_LENGTH:
+        return None
+    block = []
+    for d, n in enumerate(moved.shape):
+        k = min(n, long if d == moved.ndim - 1 else short)
+        block.append(slice((n - k) // 2, (n - k) // 2 + k))
+    b = np.asarray(moved[tuple(block)], dtype=np.float64)
+    r = b.copy()
+    for parity in (slice(0, None, 2), slice(1, None, 2)):
+        r[..., parity] -= b[..., parity].mean(axis=-1, keepdims=True)
+    energy = float((r * r).sum())
+    if energy == 0.0:
+        return None
+    return float((r[..., :-1] * r[..., 1:]).sum()) / energy
+
+
+def planes_last_suspected(spikes) -> bool:
+    """True when a ``(T, H, W)`` array read planes first looks like planes-last ``(H, W, T)`` data.
+
+    The rule reads the spikes, not the shape (250 planes of 400×500 and 250×400 pixels over 500
+    planes are both plausible shapes).  A spike-camera pixel integrates and fires: below one spike
+    per two readouts it never fires twice in a row, above it never stays silent twice in a row, so
+    its spike train is anticorrelated at lag 1 (about −r/(1−r) at rate r < ½), while neighbouring
+    pixels fire with independent phases at similar rates (correlation ≥ 0).  Each line is centred on
+    its even and odd entries apart, so a Bayer mosaic's alternation of two colours along a row or a
+    column is not taken for time.  The array is suspected planes last when the lag-1 correlation
+    along its last axis is at most :data:`PLANES_LAST_CORRELATION` (−0.03; independent random 0/1 of
+    32 entries and more stay within ±0.015) and at least twice that along its first axis (a
+    planes-first array's first axis is its time: the most anticorrelated).  When the first or the last
+    axis is shorter than :data:`PLANES_LAST_MIN_LENGTH`, or the spikes do not vary, nothing is judged
+    (False).  Very dim recordings (a few spikes per hundred readouts) are anticorrelated too little to
+    be judged: Spike-Zoo's UHSR clip, 0.03 spikes per readout, gives −0.026 along its time axis.
+
+    Parameters
+    ----------
+    spikes : array_like ``(A, B, C)`` of 0/1
+        The array as it would be read, planes first.  Only a centred block of at most
+        512 × 32 × 32 entries per axis tested is read (a memory-mapped ``.npy`` stays on disk).
+
+    Returns
+    -------
+    bool
+    """
+    arr = spikes if isinstance(spikes, np.ndarray) else np.asarray(spikes)
+    if arr.ndim != 3:
+        raise ValueError(f"spikes must have 3 axes; got shape {arr.shape}")
+    last = _lag1_correlation(arr, -1)
+    if last is None or last > PLANES_LAST_CORRELATION:
+        return False
+    first = _lag1_correlation(arr, 0)
+    return first is not None and last <= 2 * first
+
+
 def _read_array_file(path: Path, read):
     """``read()`` of NumPy's reader, with a damaged or foreign ``.npy``/``.npz`` file (truncated, not NumPy's,
     holding Python objects) reported as one ``ValueError`` that names it."""
@@ -330,18 +415,22 @@ def _npz_spikes(path: Path, key: str | None) -> np.ndarray:
 
 
 def load_spikes(path, height: int | None = None, width: int | None = None, cfa: str | None = None, *,
-                key: str | None = None, axes: str = "THW", **kw):
+                key: str | None = None, axes: str = "THW", rows: str | None = None, **kw):
     """Open a spike file by its suffix: ``.dat`` (memory-mapped), ``.npy`` or ``.npz``.
 
     ``.npy`` holds one array; ``.npz`` the array ``key``, by default the first of :data:`NPZ_SPIKE_KEYS`
     it has, else its only array.  ``axes`` says how that array is ordered: ``"THW"`` (planes first) or
     ``"HWT"`` (planes last, as SpikingSIM's samples); the stream is always ``(T, H, W)``.  For ``.dat``
     the size must be given; ``None`` (not given) means the default 250×400, and 0 is refused
-    (ValueError naming the argument); ``key`` and ``axes`` are for array files only.
+    (ValueError naming the argument); ``rows`` is the order the ``.dat`` stores its rows in
+    (``"bottom-up"``, the default for ``None``, or ``"top-down"``; :func:`read_dat`).  ``key`` and
+    ``axes`` are for array files only (refused for a ``.dat``); the sizes and ``rows`` are for ``.dat``
+    only (an array holds its own size, row 0 at the top) and are not used for an array file.
     """
     path = Path(path)
     suffix = path.suffix.lower()
     height, width = _optional_count("height", height), _optional_count("width", width)
+    rows = None if rows is None else check_rows(rows)
     if axes not in ARRAY_AXES:
         raise ValueError(f"axes must be one of {', '.join(ARRAY_AXES)}; got {axes!r}")
     if key is not None and not isinstance(key, str):
@@ -353,7 +442,8 @@ def load_spikes(path, height: int | None = None, width: int | None = None, cfa: 
     if suffix == ".dat":
         if key is not None or axes != "THW":
             raise ValueError(f"{path}: key and axes are for .npy/.npz files; a .dat file is planes of rows")
-        return read_dat(path, 250 if height is None else height, 400 if width is None else width, cfa, **kw)
+        return read_dat(path, 250 if height is None else height, 400 if width is None else width, cfa,
+                        rows="bottom-up" if rows is None else rows, **kw)
     if suffix == ".npy":
         if key is not None:
             raise ValueError(f"{path}: a .npy file holds one array; key is for .npz files")
@@ -373,7 +463,7 @@ def load_spikes(path, height: int | None = None, width: int | None = None, cfa: 
 
 def open_spike_file(path, height: int | None = None, width: int | None = None, cfa: str | None = None,
                     file_width: int | None = None, rate_hz: float | None = None, key: str | None = None,
-                    axes: str = "THW"):
+                    axes: str = "THW", rows: str | None = None):
     """Open a spike file, taking what is not given from its ``NAME.json`` sidecar (``.dat``).
 
     Arguments override the sidecar; without either, ``.dat`` defaults to 250×400 mono at
@@ -393,16 +483,21 @@ def open_spike_file(path, height: int | None = None, width: int | None = None, c
     key, axes : str
         For ``.npy``/``.npz`` files: the ``.npz`` key of the spikes and the array's axis order
         (:func:`load_spikes`).
+    rows : {"bottom-up", "top-down"} or None
+        For ``.dat`` files: the order the file stores its rows in (:func:`read_dat`); ``None`` means
+        not given (the sidecar's ``"rows"``, else ``"bottom-up"``, the spike camera's).
 
     Raises
     ------
     ValueError
         A size of 0 or less, a non-integer size or a rate that is not a positive number: 0 is a
-        value, never "not given"; the message names the argument.
+        value, never "not given"; the message names the argument.  A ``rows`` (or a sidecar's
+        ``"rows"``) other than the two orders, naming it.
     """
     path = Path(path)
     height, width = _optional_count("height", height), _optional_count("width", width)
     file_width, rate_hz = _optional_count("file_width", file_width), _optional_rate("rate_hz", rate_hz)
+    rows = None if rows is None else check_rows(rows)
     meta = read_sidecar(path) if path.suffix.lower() == ".dat" else {}
     cfa = cfa if cfa is not None else meta.get("cfa")
     if isinstance(cfa, str) and cfa.lower() == "mono":
@@ -410,6 +505,9 @@ def open_spike_file(path, height: int | None = None, width: int | None = None, c
     kw = {"rate_hz": rate_hz if rate_hz is not None else meta.get("rate_hz", 20000.0)}
     if path.suffix.lower() == ".dat":
         kw["file_width"] = file_width if file_width is not None else meta.get("file_width")
+        if rows is None and "rows" in meta:
+            rows = check_rows(meta["rows"], name=f"{sidecar_path(path)}: rows")
+        kw["rows"] = rows
         return load_spikes(path, height=height if height is not None else meta.get("height", 250),
                            width=width if width is not None else meta.get("width", 400), cfa=cfa, key=key,
                            axes=axes, **kw)

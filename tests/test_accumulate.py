@@ -91,3 +91,24 @@ def test_bad_spike_values_are_rejected():
         accumulate(np.full((4, 2, 2), 2, np.uint8), 2)
     with pytest.raises(ValueError, match=r"shape \(T, H, W\)"):
         accumulate(np.zeros((4, 4), np.uint8), 2)
+
+
+@pytest.mark.parametrize("h, w, fw, col_offset, window", [
+    (8, 64, 64, 0, 10),     # the fast 64-bit path
+    (8, 1000, 1024, 8, 7),  # the fast path on padded rows
+    (6, 12, 16, 0, 5),      # 32-bit words joined in pairs
+    (6, 5, 12, 3, 4),       # the generic kernel (columns not whole bytes)
+    (4, 8, 8, 0, 300),      # the generic kernel (counts above 255)
+])
+def test_counts_of_a_top_down_stream_are_upright(h, w, fw, col_offset, window):
+    """Eq. 4 counts straight from the bytes of a .dat stored top-down equal those of the upright array, with
+    either kernel (they place rows bottom-up; count_windows turns them)."""
+    spikes = _spikes(h + w, (600, h, fw), 0.4)
+    upright = spikes[:, :, col_offset : col_offset + w]
+    ref = upright[: 600 // window * window].reshape(-1, window, h, w).sum(1)
+    stream = SpikeStream.from_packed(pack_planes(spikes, rows="top-down"), h, w, file_width=fw,
+                                     col_offset=col_offset, rows="top-down")
+    np.testing.assert_array_equal(window_counts(stream, window), ref)
+    np.testing.assert_array_equal(window_counts(stream.slice(window), window)[0], ref[1])
+    np.testing.assert_array_equal(accumulate(stream, window, start=2, count=1),
+                                  accumulate(np.ascontiguousarray(upright), window, start=2, count=1))

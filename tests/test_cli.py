@@ -494,3 +494,262 @@ def test_a_dat_without_sidecar_says_what_size_it_assumed(tmp_path, capsys):
     (tmp_path / "r.json").write_text(json.dumps({"height": 250, "width": 400}))
     assert main(["info", str(tmp_path / "r.dat")]) == 0
     assert "note:" not in capsys.readouterr().err
+
+
+def _if_spikes(rates, planes, seed=0):
+    """Integrate-and-fire spikes (T, H, W) of a static rate map: each pixel's train anticorrelated in time."""
+    phase = np.random.default_rng(seed).random(rates.shape)
+    level = np.floor(rates[None] * np.arange(planes + 1)[:, None, None] + phase[None])
+    return np.diff(level, axis=0).astype(np.uint8)
+
+
+def _warnings(err: str) -> list[str]:
+    """The input warnings of stderr: planes-last arrays and .dat options for array files (not the CFA's)."""
+    return [line for line in err.splitlines() if line.startswith("warning:")
+            and ("looks stored planes-last" in line or " for .dat files and ignored " in line)]
+
+
+def test_rows_option_reads_a_top_down_dat_as_the_bottom_up_one(tmp_path, capsys):
+    """--rows top-down (or "rows" in NAME.json): the same frames as the bottom-up file of the same spikes;
+    `info` prints the order; --rows sideways is refused by the parser; a run record names a top-down input."""
+    spikes = _if_spikes(np.tile([[0.4, 0.2], [0.2, 0.1]], (8, 12)), 80)
+    write_dat(tmp_path / "bu.dat", spikes)
+    write_dat(tmp_path / "td.dat", spikes, rows="top-down")
+    size = ["--height", "16", "--width", "24", "--cfa", "RGGB"]
+    assert main(["info", str(tmp_path / "td.dat"), *size, "--rows", "top-down"]) == 0
+    out = capsys.readouterr().out
+    assert "rows        stored top-down\n" in out and "plane 0 at (0,0) R: 0.4" in out
+    assert main(["info", str(tmp_path / "td.dat"), *size]) == 0  # the wrong order: a G plane where R should be
+    out = capsys.readouterr().out
+    assert "rows        stored bottom-up (the spike camera's; --rows top-down if the image is upside down)" in out
+    assert "plane 0 at (0,0) R: 0.2" in out
+    run = ["reconstruct", "--no-denoiser", "-L", "1", "--frames", "1:2"]
+    assert main([*run, str(tmp_path / "bu.dat"), *size, "--exr-dir", str(tmp_path / "a")]) == 0
+    assert main([*run, str(tmp_path / "td.dat"), *size, "--rows", "top-down", "--exr-dir", str(tmp_path / "b")]) == 0
+    np.testing.assert_array_equal(read_exr(tmp_path / "b" / "frame_000001.exr"),
+                                  read_exr(tmp_path / "a" / "frame_000001.exr"))
+    record = json.loads(next((tmp_path / "b").glob("*.json")).read_text())
+    assert record["input"]["rows"] == "top-down"
+    assert "rows" not in json.loads(next((tmp_path / "a").glob("*.json")).read_text())["input"]
+    (tmp_path / "td.json").write_text(json.dumps({"height": 16, "width": 24, "cfa": "RGGB", "rows": "top-down"}))
+    assert main([*run, str(tmp_path / "td.dat"), "--exr-dir", str(tmp_path / "c")]) == 0
+    np.testing.assert_array_equal(read_exr(tmp_path / "c" / "frame_000001.exr"),
+                                  read_exr(tmp_path / "a" / "frame_000001.exr"))
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        main(["info", str(tmp_path / "td.dat"), "--rows", "sideways"])
+    assert exc.value.code == 2
+    assert "argument --rows: invalid choice: 'sideways' (choose from 'bottom-up', 'top-down')" \
+        in capsys.readouterr().err
+
+
+def test_dat_options_given_for_an_array_file_warn_and_the_run_goes_on(tmp_path, capsys):
+    spikes = (np.random.default_rng(1).random((12, 4, 8)) < 0.3).astype(np.uint8)
+    np.savez(tmp_path / "a.npz", spikes=spikes)
+    write_dat(tmp_path / "a.dat", spikes)
+    assert main(["info", str(tmp_path / "a.npz"), "--height", "4", "--rows", "top-down", "--file-width", "16"]) == 0
+    out, err = capsys.readouterr()
+    assert _warnings(err) == ["warning: --height, --file-width, --rows are for .dat files and ignored for a.npz: an "
+                              "array file holds its own size, row 0 at the top"]
+    assert "planes      12" in out and "rows" not in out  # it ran, and an array has no stored row order
+    assert main(["info", str(tmp_path / "a.npz"), "--width", "8"]) == 0
+    assert _warnings(capsys.readouterr().err) == ["warning: --width is for .dat files and ignored for a.npz: an "
+                                                  "array file holds its own size, row 0 at the top"]
+    for argv in (["info", str(tmp_path / "a.npz")], ["info", str(tmp_path / "a.npz"), "--axes", "THW"],
+                 ["info", str(tmp_path / "a.dat"), "--height", "4", "--width", "8", "--rows", "bottom-up",
+                  "--file-width", "8"]):
+        assert main(argv) == 0
+        assert _warnings(capsys.readouterr().err) == [], argv
+    # what does not apply to a .dat stays refused
+    assert main(["info", str(tmp_path / "a.dat"), "--height", "4", "--width", "8", "--key", "spk"]) == 2
+    assert "key and axes are for .npy/.npz files" in capsys.readouterr().err
+    assert main(["info", str(tmp_path / "a.dat"), "--height", "4", "--width", "8", "--axes", "HWT"]) == 2
+    assert "key and axes are for .npy/.npz files" in capsys.readouterr().err
+
+
+def test_an_array_that_looks_planes_last_warns_unless_read_so(tmp_path, capsys):
+    rates = 0.05 + 0.4 * np.random.default_rng(2).random((40, 56))
+    spikes = _if_spikes(rates, 120)
+    np.savez(tmp_path / "hwt.npz", np.ascontiguousarray(np.moveaxis(spikes, 0, -1)))
+    np.save(tmp_path / "thw.npy", spikes)
+    assert main(["info", str(tmp_path / "hwt.npz")]) == 0
+    out, err = capsys.readouterr()
+    assert _warnings(err) == ["warning: hwt.npz looks stored planes-last: its last axis (120 long) behaves like time "
+                              "(a pixel's spikes, anticorrelated from one readout to the next) and its first (40) "
+                              "does not; read as 40 planes of 56×120 it gives streaks: give --axes HWT"]
+    assert "planes      40" in out  # the run went on, as asked
+    assert main(["info", str(tmp_path / "hwt.npz"), "--axes", "HWT"]) == 0
+    assert _warnings(capsys.readouterr().err) == []
+    assert main(["info", str(tmp_path / "thw.npy")]) == 0
+    assert _warnings(capsys.readouterr().err) == []
+
+
+@pytest.mark.realdata
+def test_the_planes_last_warning_on_the_real_recordings(real_data, capsys):
+    """SpikingSIM's (H, W, T) sample warns without --axes HWT and not with it; Spike-Zoo's (T, H, W) UHSR file and
+    the .dat recording do not warn."""
+    sim = str(real_data / "spikingsim_real_spike.npz")
+    assert main(["info", sim]) == 0
+    warned = _warnings(capsys.readouterr().err)
+    assert len(warned) == 1 and "looks stored planes-last" in warned[0] and "give --axes HWT" in warned[0]
+    for argv in (["info", sim, "--axes", "HWT"], ["info", str(real_data / "spikezoo_uhsr.npz")],
+                 ["info", str(real_data / "spikezoo_data_reds_sim_250x400.dat"), "--height", "250", "--width", "400"]):
+        assert main(argv) == 0
+        assert _warnings(capsys.readouterr().err) == [], argv
+
+
+# ----------------------------------------------------------------------------- the CFA phase read from the data
+@pytest.fixture(scope="module")
+def chart_gbrg(tmp_path_factory):
+    """A colour chart behind a GBRG mosaic (48×64, 200 planes, noisy): ``chart.dat`` with a sidecar that says
+    GBRG, ``bare.dat`` with one that gives the size only."""
+    from spikeref.simulate import load_scene, simulate
+
+    folder = tmp_path_factory.mktemp("cfa")
+    scene = load_scene(SCENES / "color_chart.toml",
+                       overrides={"planes": 200, "camera": {"cfa": "GBRG"}, "content": {"height": 48, "width": 64}})
+    spikes = simulate(scene, seed=1).spikes
+    for name, meta in (("chart", {"cfa": "GBRG"}), ("bare", {})):
+        write_dat(folder / f"{name}.dat", spikes)
+        (folder / f"{name}.json").write_text(json.dumps({"height": 48, "width": 64, **meta}))
+    return folder
+
+
+def _cfa_warnings(err: str) -> list[str]:
+    """The CFA's warning lines of stderr: a pattern whose green sites the data contradict, or a mosaic read as mono."""
+    return [line for line in err.splitlines() if (line.startswith("warning:") and "puts green at" in line)
+            or line.startswith("warning: the spikes look like a Bayer mosaic")]
+
+
+def test_info_json_is_one_object_with_the_detected_phase(chart_gbrg, capsys):
+    assert main(["info", str(chart_gbrg / "chart.dat"), "--json"]) == 0
+    captured = capsys.readouterr()
+    facts = json.loads(captured.out)  # the whole of stdout is one JSON object
+    assert facts["height"] == 48 and facts["width"] == 64 and facts["planes"] == 200
+    assert facts["cfa"] == "GBRG" and facts["cfa_source"] == "from chart.json"
+    assert facts["cfa_detected"] == "GBRG" and 0.5 < facts["cfa_confidence"] <= 1
+    assert facts["rate_hz"] == 20000 and facts["duration_ms"] == pytest.approx(10.0)
+    assert facts["file"].endswith("chart.dat") and len(facts["phase_rates"]) == 4 and facts["frames"] == [3, 17]
+    assert facts["cfa_features"]["planes"] == 200 and len(facts["cfa_features"]["phase_means"]) == 4
+    assert _cfa_warnings(captured.err) == []
+    # no pattern given: "mono", and the mosaic the data show gets one warning line
+    assert main(["info", str(chart_gbrg / "bare.dat"), "--json"]) == 0
+    captured = capsys.readouterr()
+    facts = json.loads(captured.out)
+    assert facts["cfa"] == "mono" and facts["cfa_detected"] == "GBRG"
+    assert len(_cfa_warnings(captured.err)) == 1 and "--cfa auto or --cfa GBRG" in captured.err
+
+
+def test_info_prints_the_given_and_the_detected_phase(chart_gbrg, capsys):
+    assert main(["info", str(chart_gbrg / "chart.dat")]) == 0
+    out = capsys.readouterr().out
+    assert "cfa         GBRG (from chart.json)" in out and "cfa detected GBRG, confidence 0." in out
+    assert main(["info", str(chart_gbrg / "bare.dat"), "--cfa", "GRBG"]) == 0
+    captured = capsys.readouterr()
+    assert "cfa         GRBG (as given)" in captured.out and _cfa_warnings(captured.err) == []  # same green sites
+    assert main(["info", str(chart_gbrg / "bare.dat"), "--cfa", "auto"]) == 0
+    out = capsys.readouterr().out
+    assert "cfa         auto (read from the data below)" in out and "plane 1 at (0,1) B:" in out
+
+
+def test_cfa_auto_picks_the_pattern(chart_gbrg, tmp_path, capsys):
+    from spikeref.cli import build_parser, open_input
+
+    args = build_parser().parse_args(["denoise", str(chart_gbrg / "chart.dat"), "--cfa", "auto"])
+    stream = open_input(args)
+    assert stream.cfa == "GBRG" and args.cfa == "GBRG"  # a later reader (Dask's workers) opens it alike
+    assert capsys.readouterr().err.startswith("cfa auto: detected GBRG, confidence 0.")
+    assert main(["baseline", "tfp", str(chart_gbrg / "bare.dat"), "--cfa", "AUTO", "--exr-dir", str(tmp_path / "e"),
+                 "-W", "50"]) == 0
+    err = capsys.readouterr().err
+    assert sum(line.startswith("cfa auto: detected GBRG") for line in err.splitlines()) == 1
+    assert _cfa_warnings(err) == []
+    # a monochrome recording: auto reads mono, and the run goes on without colour
+    mono = np.zeros((60, 8, 10), np.uint8)
+    mono[::3] = 1
+    np.save(tmp_path / "m.npy", mono)
+    args = build_parser().parse_args(["denoise", str(tmp_path / "m.npy"), "--cfa", "auto"])
+    assert open_input(args).cfa is None and args.cfa == "mono"
+    assert "cfa auto: detected mono" in capsys.readouterr().err
+
+
+def test_a_contradicting_cfa_warns_once_and_a_right_one_does_not(chart_gbrg, tmp_path, capsys):
+    run = ["baseline", "tfp", str(chart_gbrg / "chart.dat"), "--exr-dir", str(tmp_path / "a"), "-W", "50"]
+    assert main([*run, "--cfa", "RGGB"]) == 0  # the run goes on: the user may know better
+    warned = _cfa_warnings(capsys.readouterr().err)
+    assert len(warned) == 1 and warned[0].startswith("warning: --cfa RGGB puts green at (0,1)/(1,0), the spikes at "
+                                                     "(0,0)/(1,1) (detected GBRG, green sites confidence 1.00)")
+    assert len(list((tmp_path / "a").iterdir())) == 4
+    for given in ([], ["--cfa", "GBRG"], ["--cfa", "GRBG"]):  # the sidecar's, the same, the same green sites
+        assert main([*run[:4], str(tmp_path / f"ok{len(given)}{''.join(given)}"), *run[5:], *given]) == 0
+        assert _cfa_warnings(capsys.readouterr().err) == [], given
+    # the sidecar's pattern contradicted: named as the sidecar's
+    (tmp_path / "s.json").write_text(json.dumps({"height": 48, "width": 64, "cfa": "BGGR"}))
+    (tmp_path / "s.dat").write_bytes((chart_gbrg / "chart.dat").read_bytes())
+    assert main(["info", str(tmp_path / "s.dat")]) == 0
+    warned = _cfa_warnings(capsys.readouterr().err)
+    assert len(warned) == 1 and "the cfa BGGR from s.json puts green at (0,1)/(1,0)" in warned[0]
+    # the embedded sample (RGGB, as its sidecar says) and a monochrome file: no warning
+    assert main(["info"]) == 0 and _cfa_warnings(capsys.readouterr().err) == []
+    mono = (np.random.default_rng(0).random((100, 16, 20)) < 0.2).astype(np.uint8)
+    np.save(tmp_path / "m.npy", mono)
+    assert main(["info", str(tmp_path / "m.npy"), "--cfa", "RGGB"]) == 0
+    assert _cfa_warnings(capsys.readouterr().err) == []  # the phases are alike: nothing contradicts RGGB
+
+
+def _hot_dat(tmp_path, dark: bool, name: str, planes: int = 120):
+    """A 32×32 RGGB .dat (with its sidecar) of Bernoulli spikes: a dim smooth scene or the dark, and three hot
+    pixels at 0.6 spikes per readout."""
+    from spikeref.io.dat import sidecar_path
+
+    mask = np.zeros((32, 32), bool)
+    mask[5, 6] = mask[17, 22] = mask[26, 9] = True
+    base = np.zeros((32, 32)) if dark else 0.2 + 0.1 * np.sin(np.arange(32) / 5.0)[None, :] * np.ones((32, 1))
+    p = np.clip(base + 0.6 * mask, 0, 1)
+    spikes = (np.random.default_rng(7).random((planes, 32, 32)) < p).astype(np.uint8)
+    path = tmp_path / name
+    write_dat(path, spikes)
+    sidecar_path(path).write_text(json.dumps({"height": 32, "width": 32, "cfa": "RGGB"}))
+    return path, mask
+
+
+@pytest.mark.filterwarnings("ignore:.*too small for the alignment pyramid")
+def test_calibrate_then_reconstruct_and_denoise_with_the_map(tmp_path, capsys):
+    dark, mask = _hot_dat(tmp_path, True, "dark.dat")
+    scene, _ = _hot_dat(tmp_path, False, "scene.dat")
+    assert main(["calibrate", str(dark), "-o", str(tmp_path / "map.npz")]) == 0
+    out = capsys.readouterr().out
+    assert "dark.dat: 3 hot pixels" in out
+    assert main(["info", str(scene), "--json"]) == 0
+    facts = json.loads(capsys.readouterr().out)
+    assert facts["hot_pixels"] == 3 and facts["hot_pixel_planes"] == 120
+    np.testing.assert_array_equal(np.load(tmp_path / "map.npz")["hot"], mask)
+    exr = tmp_path / "exr"
+    assert main(["reconstruct", str(scene), "--hot-pixels", str(tmp_path / "map.npz"), "-L", "1", "--no-denoiser",
+                 "--frames", "1:2", "--exr-dir", str(exr)]) == 0
+    assert "hot pixels: 3 replaced by their same-colour neighbours in every window, from" in capsys.readouterr().err
+    record = json.loads((exr / "spikeref_run.json").read_text())
+    assert record["hot_pixels"]["replaced"] == 3 and "hot_pixels" not in record["params"]
+    # found in the recording itself by default; none said with off
+    assert main(["denoise", str(scene), "-W", "10", "--frames", "2", "--exr-dir", str(tmp_path / "d")]) == 0
+    assert "hot pixels: 3 replaced" in capsys.readouterr().err
+    assert main(["reconstruct", str(scene), "--hot-pixels", "off", "-L", "1", "--no-denoiser", "--frames", "1:2",
+                 "--exr-dir", str(tmp_path / "e")]) == 0
+    assert "hot pixels" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("value, message", [
+    ("map.txt", "--hot-pixels must be auto, off or a map .npz"),
+    ("nope.npz", "no such file (make one with spikeref calibrate"),
+    ("small.npz", "a map of 4×4 pixels for a recording of 32×32"),
+])
+def test_bad_hot_pixel_maps_are_refused_in_one_line(tmp_path, capsys, monkeypatch, value, message):
+    from spikeref.hot_pixels import save_hot_pixel_map
+
+    monkeypatch.chdir(tmp_path)
+    save_hot_pixel_map(tmp_path / "small.npz", np.zeros((4, 4), bool))
+    scene, _ = _hot_dat(tmp_path, False, "scene.dat")
+    assert main(["reconstruct", str(scene), "--hot-pixels", value, "-L", "1", "--exr-dir", "x"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "x").exists()

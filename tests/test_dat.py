@@ -144,3 +144,46 @@ def test_open_spike_file_refuses_zero_and_none_means_not_given(tmp_path, rng, na
     (tmp_path / "s.json").unlink()
     with pytest.raises(ValueError, match="250"):  # no sidecar: the 250×400 default, which this file is not
         open_spike_file(tmp_path / "s.dat")
+
+
+def test_top_down_layout_matches_the_oracle_and_round_trips(tmp_path, rng):
+    """rows="top-down": stored row r is image row r; the bits and the crop are as bottom-up's."""
+    from spikeref.io.dat import DatWriter
+
+    one = np.zeros((1, 2, 8), np.uint8)
+    one[0, 0, 0] = 1  # the top-left pixel: the first stored byte, bit 0, when rows are stored top-down
+    assert pack_planes(one, rows="top-down").tolist() == [[1, 0]]
+    assert pack_planes(one).tolist() == [[0, 1]]  # the default stores it in the last row
+    spikes = (rng.random((5, 6, 16)) < 0.5).astype(np.uint8)
+    packed = pack_planes(spikes, rows="top-down")
+    np.testing.assert_array_equal(packed.ravel(), pack_dat_oracle(spikes, rows="top-down"))
+    np.testing.assert_array_equal(packed, pack_planes(spikes[:, ::-1]))  # the other order is the flipped image
+    np.testing.assert_array_equal(unpack_planes(packed, 6, 16, rows="top-down"), spikes)
+    np.testing.assert_array_equal(unpack_planes(packed, 6, 12, 16, 4, rows="top-down"), spikes[:, :, 4:])
+    np.testing.assert_array_equal(unpack_dat_oracle(packed, 6, 12, 16, 4, rows="top-down"), spikes[:, :, 4:])
+    write_dat(tmp_path / "w.dat", spikes, rows="top-down", chunk_planes=2)
+    with DatWriter(tmp_path / "d.dat", 6, 16, rows="top-down") as writer:
+        writer.append(spikes[:3])
+        writer.append(spikes[3:])
+    assert (tmp_path / "w.dat").read_bytes() == (tmp_path / "d.dat").read_bytes() == packed.tobytes()
+    stream = read_dat(tmp_path / "w.dat", 6, 16, rows="top-down")
+    np.testing.assert_array_equal(stream.window(0, 5), spikes)
+    write_dat(tmp_path / "back.dat", stream)  # a stream is written upright: bottom-up by default
+    assert (tmp_path / "back.dat").read_bytes() == pack_planes(spikes).tobytes()
+
+
+@pytest.mark.parametrize("rows, error, match", [
+    ("sideways", ValueError, r"rows must be one of 'bottom-up', 'top-down' \(the order the \.dat stores"),
+    ("", ValueError, "got ''"), (None, TypeError, "got NoneType"), (1, TypeError, "got int"),
+])
+def test_a_bad_row_order_is_refused_naming_rows(tmp_path, rows, error, match):
+    from spikeref.io.dat import DatWriter
+
+    spikes = np.zeros((1, 2, 8), np.uint8)
+    for call in (lambda: pack_planes(spikes, rows=rows), lambda: unpack_planes(pack_planes(spikes), 2, 8, rows=rows),
+                 lambda: write_dat(tmp_path / "x.dat", spikes, rows=rows),
+                 lambda: DatWriter(tmp_path / "y.dat", 2, 8, rows=rows)):
+        with pytest.raises(error, match=match):
+            call()
+    assert os.listdir(tmp_path) == []  # refused before anything is written
+    assert pack_planes(spikes, rows="Top-Down").tolist() == pack_planes(spikes, rows="top-down").tolist()

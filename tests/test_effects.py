@@ -211,6 +211,27 @@ def test_random_phase_first_spikes_uniform():
 
 
 # ------------------------------------------------------------------------- hot pixels
+def test_hot_pixels_with_a_range_of_rates():
+    """``rate_max``: each hot pixel's rate is drawn from U[rate, rate_max] after the pixels are chosen, so the same
+    seed picks the same pixels as without it; in the dark each fires at its drawn rate (5 σ bounds)."""
+    sc = scene(DARK, planes=400, effects={"hot_pixels": {"fraction": 0.02, "rate": 0.3, "rate_max": 0.9}})
+    sim = Simulation(sc, seed=5)
+    hot = sim.hot > 0
+    drawn = sim.hot[hot] / sc.camera.threshold
+    assert abs(hot.sum() - 0.02 * hot.size) < 5 * math.sqrt(0.02 * 0.98 * hot.size)
+    assert drawn.min() >= 0.3 and drawn.max() <= 0.9
+    assert abs(drawn.mean() - 0.6) < 5 * 0.6 / math.sqrt(12 * hot.sum())  # U[0.3, 0.9]: mean 0.6, sd 0.6/√12
+    assert stats.kstest((drawn - 0.3) / 0.6, "uniform").pvalue > 1e-4
+    rate = counts_per_pixel(simulate(sc, seed=5).spikes).reshape(hot.shape) / 400
+    np.testing.assert_allclose(rate[hot], drawn, atol=1 / 400 + 1e-9)  # integrate-and-fire at a constant charge
+    assert rate[~hot].max() == 0
+    plain = Simulation(scene(DARK, planes=400, effects={"hot_pixels": {"fraction": 0.02, "rate": 0.3}}), seed=5)
+    np.testing.assert_array_equal(plain.hot > 0, hot)
+    assert np.all(plain.hot[hot] == 0.3 * sc.camera.threshold)
+    with pytest.raises(ValueError, match="hot_pixels.rate_max must lie in"):
+        fx.parse_effects({"hot_pixels": {"rate": 0.5, "rate_max": 0.4}})
+
+
 def test_hot_pixels():
     fraction, rate, planes = 0.02, 0.25, 400
     sc = scene(DARK, planes=planes, effects={"hot_pixels": {"fraction": fraction, "rate": rate}})

@@ -32,7 +32,7 @@ import numpy as np
 import pytest
 
 import spikeref.render as render
-from spikeref.cli import CliError, main
+from spikeref.cli import SAMPLE, CliError, main
 from spikeref.io.atomic import atomic_write
 from spikeref.io.exr import read_exr
 from spikeref.render import exr_name
@@ -223,6 +223,12 @@ BAD = [
     ("simulate: -o under a file", lambda d: ["simulate", SCENE, "-o", S(_file(d) / "x.dat")], "is not a folder"),
     ("simulate: -o missing", lambda d: ["simulate", SCENE], "the following arguments are required: -o"),
     # ---- noise-check
+    ("calibrate: -o not .npz", lambda d: ["calibrate", str(SAMPLE), "-o", "map.txt"], "must end in .npz"),
+    ("calibrate: --planes 3", lambda d: ["calibrate", str(SAMPLE), "-o", "map.npz", "--planes", "3"],
+     "--planes must be a number of readouts ≥ 8"),
+    ("calibrate: -o in a missing folder", lambda d: ["calibrate", str(SAMPLE), "-o", "no/map.npz"], "does not exist"),
+    ("reconstruct: --hot-pixels not a map", lambda d: ["reconstruct", "--hot-pixels", "on", "--exr-dir", "e"],
+     "--hot-pixels must be auto, off or a map .npz"),
     ("noise-check: --windows 0", lambda d: ["noise-check", "--windows", "0,10"], "windows must be a positive"),
     ("noise-check: --windows abc", lambda d: ["noise-check", "--windows", "abc"], "comma-separated whole numbers"),
     ("noise-check: --start -1", lambda d: ["noise-check", "--start", "-1"], "--start must be"),

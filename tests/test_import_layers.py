@@ -30,6 +30,8 @@ LAYERS = {
     "spikeref._accumulate_kernels": 2,
     "spikeref.charge": 2,
     "spikeref.noise_level": 2,
+    "spikeref.cfa_detect": 2,
+    "spikeref.hot_pixels": 2,
     "spikeref.metrics": 2,
     "spikeref.tonemap": 2,
     "spikeref.baselines": 3,

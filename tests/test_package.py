@@ -179,7 +179,8 @@ def test_a_test_may_skip_only_for_the_extras_ci_adds(monkeypatch):
                                longrepr=("t.py", 3, f"Skipped: could not import '{module}': No module named 'x'"))
 
     assert conftest.optional_outside_test() == conftest.CI_ADDS == {"torch": "train", "bm3d": "peers"}
-    monkeypatch.setattr(conftest, "OPTIONAL", dict(conftest.CI_ADDS))
+    monkeypatch.setattr(conftest, "OPTIONAL", dict(conftest.CI_ADDS))  # README command 2's run (CI's first phase)
+    monkeypatch.setattr(conftest, "REQUIRE_EXTRAS", False)
     for module in ("skimage.restoration", "pywt", "hypothesis", "matplotlib", "dask.distributed", "numba"):
         r = report(module)
         conftest._strict_skip(r)

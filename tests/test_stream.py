@@ -134,3 +134,83 @@ def test_damaged_array_files_are_one_error_naming_the_file(tmp_path):
     np.testing.assert_array_equal(load_spikes(tmp_path / "one.npy").window(0, 12), spikes)
     with pytest.raises(ValueError, match=r"is a folder; give a spike file in it \(.dat, .npy or .npz\)"):
         load_spikes(tmp_path)
+
+
+def test_packed_streams_know_their_row_order(rng):
+    """A top-down packed stream gives the upright planes, keeps its order when sliced; arrays have none."""
+    spikes = (rng.random((20, 4, 8)) < 0.5).astype(np.uint8)
+    top_down = SpikeStream.from_packed(pack_planes(spikes, rows="top-down"), 4, 8, rows="top-down")
+    assert top_down.rows == "top-down" and "rows top-down" in repr(top_down)
+    np.testing.assert_array_equal(top_down.window(3, 9), spikes[3:12])
+    part = top_down.slice(5, 15)
+    assert part.rows == "top-down"
+    np.testing.assert_array_equal(part.window(0, 10), spikes[5:15])
+    assert SpikeStream.from_packed(pack_planes(spikes), 4, 8).rows == "bottom-up"
+    assert SpikeStream.from_array(spikes).rows is None and SpikeStream.from_array(spikes).slice(2).rows is None
+    # the same bytes read in the other order: the image upside down
+    other = SpikeStream.from_packed(pack_planes(spikes, rows="top-down"), 4, 8)
+    np.testing.assert_array_equal(other.window(0, 20), spikes[:, ::-1])
+
+
+def test_rows_from_arguments_and_sidecar(tmp_path, rng):
+    """open_spike_file: rows= wins over the sidecar's "rows", which wins over bottom-up; bad values name their
+    source; for an array file rows is not used (row 0 is at the top)."""
+    import json
+
+    from spikeref.io.dat import write_dat
+    from spikeref.stream import load_spikes, open_spike_file, read_dat
+
+    spikes = (rng.random((10, 4, 8)) < 0.5).astype(np.uint8)
+    write_dat(tmp_path / "td.dat", spikes, rows="top-down")
+    meta = {"height": 4, "width": 8}
+    (tmp_path / "td.json").write_text(json.dumps(meta))
+    assert open_spike_file(tmp_path / "td.dat").rows == "bottom-up"
+    np.testing.assert_array_equal(open_spike_file(tmp_path / "td.dat", rows="top-down").window(0, 10), spikes)
+    (tmp_path / "td.json").write_text(json.dumps(dict(meta, rows="top-down")))
+    np.testing.assert_array_equal(open_spike_file(tmp_path / "td.dat").window(0, 10), spikes)
+    np.testing.assert_array_equal(open_spike_file(tmp_path / "td.dat", rows="bottom-up").window(0, 10),
+                                  spikes[:, ::-1])
+    (tmp_path / "td.json").write_text(json.dumps(dict(meta, rows="upside-down")))
+    with pytest.raises(ValueError, match=r"td\.json: rows must be one of 'bottom-up', 'top-down'.*'upside-down'"):
+        open_spike_file(tmp_path / "td.dat")
+    for call in (lambda r: read_dat(tmp_path / "td.dat", 4, 8, rows=r),
+                 lambda r: open_spike_file(tmp_path / "td.dat", rows=r),
+                 lambda r: load_spikes(tmp_path / "td.dat", 4, 8, rows=r),
+                 lambda r: SpikeStream.from_packed(pack_planes(spikes), 4, 8, rows=r)):
+        with pytest.raises(ValueError, match="rows must be one of 'bottom-up', 'top-down'.*got 'sideways'"):
+            call("sideways")
+        with pytest.raises(TypeError, match="rows must be one of .*got list"):
+            call(["top-down"])
+    np.save(tmp_path / "a.npy", spikes)
+    np.testing.assert_array_equal(load_spikes(tmp_path / "a.npy", rows="top-down").window(0, 10), spikes)
+    with pytest.raises(ValueError, match="rows must be one of"):
+        load_spikes(tmp_path / "a.npy", rows="sideways")  # checked even where it is not used
+
+
+def _integrate_and_fire(rates: np.ndarray, planes: int, seed: int = 0) -> np.ndarray:
+    phase = np.random.default_rng(seed).random(rates.shape)
+    level = np.floor(rates[None] * np.arange(planes + 1)[:, None, None] + phase[None])
+    return np.diff(level, axis=0).astype(np.uint8)
+
+
+def test_planes_last_is_suspected_from_the_spikes_not_the_shape():
+    from spikeref.stream import planes_last_suspected
+
+    rng = np.random.default_rng(0)
+    scene = 0.05 + 0.4 * rng.random((48, 64))
+    thw = _integrate_and_fire(scene, 200)
+    assert not planes_last_suspected(thw)
+    assert planes_last_suspected(np.moveaxis(thw, 0, -1))  # (H, W, T) read planes first
+    # a Bayer mosaic (colours alternating along rows and columns) is not taken for time, either way round
+    bayer = _integrate_and_fire(np.tile([[0.45, 0.2], [0.2, 0.05]], (24, 32)), 200, seed=1)
+    assert not planes_last_suspected(bayer)
+    assert planes_last_suspected(np.moveaxis(bayer, 0, -1))
+    # independent random spikes, dark or saturated streams, short axes: nothing to judge
+    for shape in ((32, 32, 32), (200, 48, 64), (40, 64, 200), (64, 48, 200)):
+        assert not planes_last_suspected((rng.random(shape) < 0.3).astype(np.uint8)), shape
+    assert not planes_last_suspected(np.zeros((40, 48, 64), np.uint8))
+    assert not planes_last_suspected(np.ones((40, 48, 64), np.uint8))
+    assert not planes_last_suspected(np.moveaxis(thw, 0, -1)[:20])  # the first axis too short to judge
+    assert not planes_last_suspected(np.moveaxis(thw[:20], 0, -1))  # the last axis too short
+    with pytest.raises(ValueError, match=r"3 axes; got shape \(4, 6\)"):
+        planes_last_suspected(np.zeros((4, 6), np.uint8))

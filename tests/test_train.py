@@ -356,3 +356,28 @@ def test_a_checkpoint_written_before_the_objective_resumes_as_b2u(tmp_path):
     with pytest.raises(ValueError, match="another configuration"):
         tr.train([SpikeStream.from_array(_static_stream())], tmp_path / "w.npz", _tiny_config(objective="pairs"),
                  device="cpu", progress=False, resume=True)  # a pairs run does not take over a b2u checkpoint
+
+
+@pytest.mark.parametrize("file_width, col_offset", [(96, 0), (92, 3)])
+def test_crops_of_a_dat_stored_top_down_are_upright(tmp_path, file_width, col_offset):
+    """rows="top-down": the packed crops (counts, charges, pair targets) are those of the upright array, as for
+    the bottom-up default; read with the wrong order they are the crops of the flipped image."""
+    from spikeref.charge import window_charge
+
+    arr = _spikes((700, 72, 84), p=0.2, seed=4)
+    wide = np.zeros((arr.shape[0], arr.shape[1], file_width), np.uint8)
+    wide[:, :, col_offset : col_offset + 84] = arr
+    write_dat(tmp_path / "td.dat", wide, rows="top-down")
+    packed = read_dat(tmp_path / "td.dat", 72, 84, file_width=file_width, col_offset=col_offset, rows="top-down")
+    for t, w, y0, x0 in [(0, 5, 0, 0), (250, 10, 4, 6), (690, 10, 40, 52), (1, 1, 39, 50)]:
+        counts = tr.CropSampler([packed], 16, 5, 10)._counts(packed, t, w, y0, x0).numpy()
+        np.testing.assert_array_equal(counts, arr[t : t + w, y0 : y0 + 32, x0 : x0 + 32].sum(0))
+    want = window_charge(arr[:, 4:36, 6:38], 10, start=250, count=1)[0]
+    got = tr.CropSampler([packed], 16, 5, 200, accumulate="charge")._counts(packed, 250, 10, 4, 6).numpy()
+    np.testing.assert_array_equal(got, want)
+    in_memory = tr.CropSampler([SpikeStream.from_array(arr)], 16, 5, 20, pairs=True)
+    np.testing.assert_allclose(tr.CropSampler([packed], 16, 5, 20, pairs=True)._target(0, 100, 10, 8, 12).numpy(),
+                               in_memory._target(0, 100, 10, 8, 12).numpy(), rtol=1e-6)
+    wrong = read_dat(tmp_path / "td.dat", 72, 84, file_width=file_width, col_offset=col_offset)  # bottom-up
+    counts = tr.CropSampler([wrong], 16, 5, 10)._counts(wrong, 0, 5, 0, 0).numpy()
+    np.testing.assert_array_equal(counts, arr[0:5, ::-1][:, 0:32, 0:32].sum(0))

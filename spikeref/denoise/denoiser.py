@@ -25,6 +25,7 @@ from spikeref.denoise.blindspot import MODES, blindspot_denoise, check_cell
 from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, carried_excess_variance, sure_blend
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
+from spikeref.hot_pixels import HotPixelRepair
 
 __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR", "BUNDLED_FOR", "bundled_weights"]
 
@@ -209,7 +210,8 @@ class Denoiser:
         return out
 
     def frames(self, stream, window: int = 10, start: int = 0, count: int | None = None,
-               mode: str | None = None, accumulate: str = "count") -> Iterator[tuple[int, np.ndarray]]:
+               mode: str | None = None, accumulate: str = "count",
+               hot_pixels=None) -> Iterator[tuple[int, np.ndarray]]:
         """Yield ``(k, Ψ[D(I_k)])`` for windows ``k`` of ``stream`` (Eq. 4 with ``W = window``).
 
         Frames are linear RGB ``(H, W, 3) float32`` in spikes per readout for a colour stream
@@ -219,7 +221,9 @@ class Denoiser:
         measures the noise on the window's first ``NOISE_WINDOW`` planes (``short=`` of
         :meth:`__call__`).  ``accumulate="charge"`` takes each window's timing-aware charge
         (:func:`spikeref.charge.charge_rates`; not in the paper) instead of Eq. 4's count, and the
-        short window's charge for the guard.
+        short window's charge for the guard.  ``hot_pixels`` (``(H, W) bool``, e.g.
+        :func:`spikeref.hot_pixels.find_hot_pixels` of the stream) are replaced in every window by the mean of
+        their same-colour neighbours before the network sees it (:class:`spikeref.hot_pixels.HotPixelRepair`).
         """
         if isinstance(window, bool) or not isinstance(window, (int, np.integer)) or window < 1:
             raise ValueError(f"window must be a positive number of planes; got {window!r}")
@@ -235,7 +239,19 @@ class Denoiser:
         if total < 1:
             raise ValueError(f"window={window} from plane {start} is longer than the stream ({len(stream)} planes)")
         count = total if count is None else min(int(count), total)
+        repair = None
+        if hot_pixels is not None:
+            mask = np.asarray(hot_pixels)
+            if mask.dtype != bool or mask.shape != (stream.height, stream.width):
+                raise ValueError(f"hot_pixels must be a ({stream.height}, {stream.width}) bool map of the stream; "
+                                 f"got {mask.dtype} of shape {mask.shape}")
+            repair = HotPixelRepair(mask) if mask.any() else None
         measure = charge_rates if accumulate == "charge" else eq4
+        if repair is not None:
+            plain = measure
+
+            def measure(*a, **kw):
+                return repair.mosaic(np.ascontiguousarray(plain(*a, **kw), dtype=np.float32))
         block, block_k = [], 0  # WINDOWS_PER_CALL windows at a time: a charge's margins are read once per call
         for k in range(count):
             first = start + k * window

@@ -251,16 +251,23 @@ class CropSampler:
 
     def _packed_crop(self, stream, y0: int, x0: int, device):
         """Where the crop ``[y0, y0+s) × [x0, x0+s)`` lies in a packed ``.dat`` plane: the byte range
-        ``[byte_lo, byte_hi)`` and, per crop pixel ``(s, s)``, its bit in those bytes (LSB first), stored rows
-        first — stored row r is image row H−1−r, pixel (r, c) is bit r·Wf + col_offset + c."""
+        ``[byte_lo, byte_hi)`` and, per crop pixel ``(s, s)`` upright (row k is image row y0 + k), its bit in
+        those bytes (LSB first) — the pixel of stored row r, column c is bit r·Wf + col_offset + c, and stored
+        row r is image row H−1−r (rows stored bottom-up, ``stream.rows``'s default) or r (top-down)."""
         s = 2 * self.patch
         wf = stream.file_width
-        r_lo = stream.height - (y0 + s)  # stored rows r_lo .. r_lo+s-1 hold image rows y0+s-1 .. y0
+        k = torch.arange(s, device=device)
+        if stream.rows == "top-down":
+            r_lo = y0  # stored rows y0 .. y0+s-1 hold image rows y0 .. y0+s-1
+            stored = r_lo + k
+        else:
+            r_lo = stream.height - (y0 + s)  # stored rows r_lo .. r_lo+s-1 hold image rows y0+s-1 .. y0
+            stored = r_lo + (s - 1 - k)  # image row y0 + k is stored row H-1-(y0+k)
         bit_lo = r_lo * wf + stream.col_offset + x0
         byte_lo = bit_lo // 8
         byte_hi = ((r_lo + s - 1) * wf + stream.col_offset + x0 + s + 7) // 8
-        starts = torch.arange(s, device=device) * wf + (bit_lo - 8 * byte_lo)
-        return byte_lo, byte_hi, starts[:, None] + torch.arange(s, device=device)[None, :]
+        starts = (stored - r_lo) * wf + (bit_lo - 8 * byte_lo)
+        return byte_lo, byte_hi, starts[:, None] + k[None, :]
 
     def _charge(self, stream, t: int, w: int, y0: int, x0: int, with_count: bool = False):
         """The charge (:func:`spikeref.charge.window_charge`) of planes ``[t, t+w)`` over the crop; with
@@ -273,7 +280,7 @@ class CropSampler:
             byte_lo, byte_hi, idx = self._packed_crop(stream, y0, x0, torch.device("cpu"))
             raw = torch.from_numpy(np.array(stream.packed[lo:hi, byte_lo:byte_hi]))
             bits = ((raw[..., None] >> self._shifts.cpu()) & 1).reshape(hi - lo, -1)  # LSB first
-            block = np.ascontiguousarray(bits[:, idx].flip(1).numpy(), dtype=np.uint8)  # stored bottom-up
+            block = np.ascontiguousarray(bits[:, idx].numpy(), dtype=np.uint8)  # idx is upright
         charge = torch.from_numpy(window_charge(block, w, start=t - lo, count=1, margin=DEFAULT_MARGIN)[0])
         if with_count:
             return charge.to(self.device), torch.from_numpy(block.sum(0, dtype=np.int32)).to(self.device)
@@ -295,7 +302,7 @@ class CropSampler:
         raw = torch.from_numpy(np.array(stream.packed[t : t + w, byte_lo:byte_hi])).to(self.device)
         bits = (raw[..., None] >> self._shifts) & 1  # (w, nbytes, 8), LSB first
         counts = bits.sum(0, dtype=torch.int32).reshape(-1)
-        return counts[idx].flip(0)  # stored order is bottom-up
+        return counts[idx]  # idx is upright (whatever the stored row order)
 
     def _total(self, index: int) -> np.ndarray:
         """The spike count of every plane of stream ``index``, ``(H, W) int64`` (Eq. 4's sum over the whole

@@ -9,7 +9,9 @@ Layout (the one SpikeCV, Spike-Zoo and Spk2ImgNet read; ``docs/spec/io.md``)
   wider rows, e.g. 1024-wide rows for a 1000×1000 sensor);
 * inside a plane pixels are row-major; pixel ``p`` is bit ``p % 8`` of byte
   ``p // 8`` (LSB first);
-* rows are stored bottom-up: stored row ``r`` is image row ``H - 1 - r``.
+* rows are stored bottom-up: stored row ``r`` is image row ``H - 1 - r`` (``rows="bottom-up"``, the
+  default and the spike camera's); files written top-down (stored row ``r`` is image row ``r``, as
+  SSL-CSC's simulated recordings) are read with ``rows="top-down"`` (``docs/inputs.md``).
 
 Reading never loads the file: :func:`map_dat` memory-maps it (and
 :func:`spikeref.stream.read_dat` wraps the map in a :class:`~spikeref.stream.SpikeStream`);
@@ -28,6 +30,8 @@ import numpy as np
 from spikeref.io.atomic import atomic_write, publish, temporary_beside
 
 __all__ = [
+    "ROW_ORDERS",
+    "check_rows",
     "sidecar_path",
     "plane_nbytes",
     "check_spikes",
@@ -39,6 +43,29 @@ __all__ = [
     "read_sidecar",
     "save_spikes",
 ]
+
+
+#: The row orders a ``.dat`` file may store: ``"bottom-up"`` (the spike camera's and the default: stored row
+#: ``r`` is image row ``H - 1 - r``) and ``"top-down"`` (stored row ``r`` is image row ``r``).
+ROW_ORDERS = ("bottom-up", "top-down")
+
+
+def check_rows(rows, name: str = "rows") -> str:
+    """Validate a stored row order and return it in lower case (``"bottom-up"`` or ``"top-down"``).
+
+    Raises
+    ------
+    TypeError
+        ``rows`` is not a string; the message names ``name``.
+    ValueError
+        Any other string; the message names ``name`` and the two orders.
+    """
+    if not isinstance(rows, str):
+        raise TypeError(f"{name} must be one of {', '.join(map(repr, ROW_ORDERS))}; got {type(rows).__name__}")
+    if rows.lower() not in ROW_ORDERS:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, ROW_ORDERS))} (the order the .dat stores "
+                         f"the image rows in); got {rows!r}")
+    return rows.lower()
 
 
 def plane_nbytes(height: int, width: int) -> int:
@@ -74,30 +101,40 @@ def check_spikes(spikes, name: str = "spikes", check_values: bool = True) -> np.
     return arr.astype(np.uint8, copy=False)
 
 
-def pack_planes(spikes: np.ndarray) -> np.ndarray:
-    """Pack ``(T, H, W)`` 0/1 planes into the ``.dat`` byte layout ``(T, H*W/8) uint8``."""
+def pack_planes(spikes: np.ndarray, rows: str = "bottom-up") -> np.ndarray:
+    """Pack upright ``(T, H, W)`` 0/1 planes into the ``.dat`` byte layout ``(T, H*W/8) uint8``.
+
+    ``rows`` is the order the rows are stored in: ``"bottom-up"`` (the spike camera's, default) or
+    ``"top-down"``.
+    """
+    rows = check_rows(rows)
     spikes = check_spikes(spikes)
     t, h, w = spikes.shape
     plane_nbytes(h, w)
-    flipped = spikes[:, ::-1, :].reshape(t, h * w)
-    return np.packbits(flipped, axis=1, bitorder="little")
+    stored = (spikes[:, ::-1, :] if rows == "bottom-up" else spikes).reshape(t, h * w)
+    return np.packbits(stored, axis=1, bitorder="little")
 
 
 def unpack_planes(
-    packed: np.ndarray, height: int, width: int, file_width: int | None = None, col_offset: int = 0
+    packed: np.ndarray, height: int, width: int, file_width: int | None = None, col_offset: int = 0,
+    rows: str = "bottom-up",
 ) -> np.ndarray:
     """Inverse of :func:`pack_planes`: ``(T, H*Wf/8) uint8`` → upright ``(T, H, W) uint8``.
 
     ``file_width`` (default ``width``) is the stored row width; columns
-    ``[col_offset, col_offset + width)`` of each stored row are kept.
+    ``[col_offset, col_offset + width)`` of each stored row are kept.  ``rows`` is the stored row
+    order, ``"bottom-up"`` (default) or ``"top-down"``; the result is upright either way.
     """
+    rows = check_rows(rows)
     file_width = width if file_width is None else file_width
     nbytes = plane_nbytes(height, file_width)
     packed = np.asarray(packed)
     if packed.ndim != 2 or packed.shape[1] != nbytes:
         raise ValueError(f"packed must have shape (T, {nbytes}); got {packed.shape}")
     bits = np.unpackbits(packed, axis=1, bitorder="little").reshape(-1, height, file_width)
-    return np.ascontiguousarray(bits[:, ::-1, col_offset : col_offset + width])
+    if rows == "bottom-up":
+        bits = bits[:, ::-1]
+    return np.ascontiguousarray(bits[:, :, col_offset : col_offset + width])
 
 
 def map_dat(path, height: int = 250, file_width: int = 400) -> np.ndarray:
@@ -140,11 +177,14 @@ class DatWriter:
     path : str or Path
     height, width : int
         Plane size; ``height · width`` must be a multiple of 8.
+    rows : {"bottom-up", "top-down"}
+        The order the rows are stored in (default ``"bottom-up"``, the spike camera's).
     """
 
-    def __init__(self, path, height: int, width: int):
+    def __init__(self, path, height: int, width: int, rows: str = "bottom-up"):
         self.path = Path(path)
         self.height, self.width = int(height), int(width)
+        self.rows = check_rows(rows)
         plane_nbytes(self.height, self.width)
         self.planes = 0
         self._tmp = temporary_beside(self.path)
@@ -157,7 +197,7 @@ class DatWriter:
             raise ValueError(
                 f"planes must be {self.height}×{self.width} to go into {self.path.name}; got {spikes.shape[1:]}"
             )
-        self._fh.write(pack_planes(spikes).tobytes())
+        self._fh.write(pack_planes(spikes, self.rows).tobytes())
         self.planes += spikes.shape[0]
 
     def close(self) -> Path:
@@ -186,16 +226,19 @@ class DatWriter:
         return False
 
 
-def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
+def write_dat(path, spikes, chunk_planes: int = 4096, rows: str = "bottom-up") -> Path:
     """Write spikes in the ``.dat`` layout, atomically.
 
     Parameters
     ----------
     path : str or Path
     spikes : ndarray ``(T, H, W)`` 0/1, or a :class:`~spikeref.stream.SpikeStream`
-        A stream (anything with ``height``, ``width``, ``len()`` and ``window(start, n)``) is
-        written window by window, memory bounded by ``chunk_planes``.
+        Upright planes.  A stream (anything with ``height``, ``width``, ``len()`` and
+        ``window(start, n)``) is written window by window, memory bounded by ``chunk_planes``.
+    rows : {"bottom-up", "top-down"}
+        The order the rows are stored in (default ``"bottom-up"``, the spike camera's).
     """
+    rows = check_rows(rows)
     if isinstance(spikes, np.ndarray) or not hasattr(spikes, "window"):
         spikes = check_spikes(spikes)
         height, width, total = spikes.shape[1], spikes.shape[2], spikes.shape[0]
@@ -203,7 +246,7 @@ def write_dat(path, spikes, chunk_planes: int = 4096) -> Path:
             return spikes[start:start + n]
     else:
         height, width, total, window = spikes.height, spikes.width, len(spikes), spikes.window
-    with DatWriter(path, height, width) as writer:
+    with DatWriter(path, height, width, rows) as writer:
         for start in range(0, total, chunk_planes):
             writer.append(window(start, min(chunk_planes, total - start)))
     return Path(path)
@@ -215,7 +258,8 @@ def sidecar_path(path) -> Path:
 
 
 def read_sidecar(path) -> dict:
-    """The ``NAME.json`` beside a ``NAME.dat`` (sizes, CFA, rate written by ``spikeref simulate``), or ``{}``."""
+    """The ``NAME.json`` beside a ``NAME.dat`` (sizes, CFA, rate written by ``spikeref simulate``; ``rows`` where
+    the file stores its rows top-down), or ``{}``."""
     meta_path = sidecar_path(path)
     if not meta_path.is_file():
         return {}

@@ -167,6 +167,21 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
                 '[spec](spec/pipeline.md#pipeline_frames_charge))'),
     ),
     AuditRow(
+        equation="— (not in the paper; the pipeline's default, `paper()` keeps them)",
+        what=("hot pixels: found in the recording (above the second largest of the 8 same-colour neighbours by "
+              "`max(0.1, 6σ)` over the stretch and in half its blocks, and alone among the 8 mosaic neighbours), "
+              "replaced in every window by the mean of their non-hot same-colour neighbours"),
+        function=('`spikeref.hot_pixels.find_hot_pixels`, `HotPixelRepair`; `spikeref.pipeline.Reconstructor` '
+                  '(`ReconstructParams(hot_pixels="auto")`, `hot_pixels=` map), `Denoiser.frames(hot_pixels=)`, '
+                  '`--hot-pixels`, `spikeref calibrate`'),
+        oracle='`hot_pixels.repair_oracle` (the repair, pixel by pixel)',
+        tests=('`tests/test_hot_pixels.py` (repair against its oracle by hypothesis, moving points, spots of light, '
+               'pairs and blobs), `tests/test_pipeline.py` (replaced before the windows are read; the paper keeps '
+               'them), `tests/test_effects.py` (the simulator\'s `hot_pixels` with a range of rates), '
+               '`tests/test_cli.py` (`calibrate`, `--hot-pixels`)'),
+        golden="— (not frozen: a port may leave it out; `scripts/study_hot_pixels.py` measures it)",
+    ),
+    AuditRow(
         equation='§4.1',
         what='mosaic → 4 Bayer planes and back',
         function='`spikeref.bayer.bayer_planes`, `bayer_mosaic`',

@@ -1,4 +1,4 @@
-"""Oracle for the ``.dat`` bit layout (docs/spec/io.md): LSB-first bits, rows bottom-up."""
+"""Oracle for the ``.dat`` bit layout (docs/spec/io.md): LSB-first bits, rows bottom-up (or top-down when told)."""
 
 import numpy as np
 
@@ -7,13 +7,16 @@ from spikeref.oracles.case import OracleCase
 __all__ = ["pack_dat_oracle", "unpack_dat_oracle", "GOLDEN_CASES"]
 
 
-def pack_dat_oracle(spikes):
-    """Bytes of a ``.dat`` file for upright ``(T, H, W)`` 0/1 planes, bit by bit."""
+def pack_dat_oracle(spikes, rows="bottom-up"):
+    """Bytes of a ``.dat`` file for upright ``(T, H, W)`` 0/1 planes, bit by bit (rows stored ``rows``)."""
+    if rows not in ("bottom-up", "top-down"):
+        raise ValueError(f"rows must be 'bottom-up' or 'top-down'; got {rows!r}")
     t_total, h, w = spikes.shape
     out = bytearray(t_total * h * w // 8)
     for t in range(t_total):
         for stored_row in range(h):
-            image_row = h - 1 - stored_row  # rows are stored bottom-up
+            # rows are stored bottom-up (the spike camera's), or top-down when told
+            image_row = h - 1 - stored_row if rows == "bottom-up" else stored_row
             for x in range(w):
                 p = t * h * w + stored_row * w + x  # pixel index in the file
                 if spikes[t, image_row, x]:
@@ -21,8 +24,10 @@ def pack_dat_oracle(spikes):
     return np.frombuffer(bytes(out), dtype=np.uint8)
 
 
-def unpack_dat_oracle(data, height, width, file_width=None, col_offset=0):
-    """Upright ``(T, H, W)`` planes from ``.dat`` bytes, bit by bit (crop to ``width``)."""
+def unpack_dat_oracle(data, height, width, file_width=None, col_offset=0, rows="bottom-up"):
+    """Upright ``(T, H, W)`` planes from ``.dat`` bytes, bit by bit (crop to ``width``; rows stored ``rows``)."""
+    if rows not in ("bottom-up", "top-down"):
+        raise ValueError(f"rows must be 'bottom-up' or 'top-down'; got {rows!r}")
     file_width = width if file_width is None else file_width
     data = np.asarray(data, dtype=np.uint8).ravel()
     n_planes = data.size * 8 // (height * file_width)
@@ -31,7 +36,8 @@ def unpack_dat_oracle(data, height, width, file_width=None, col_offset=0):
         for stored_row in range(height):
             for x in range(width):
                 p = t * height * file_width + stored_row * file_width + col_offset + x
-                spikes[t, height - 1 - stored_row, x] = (data[p // 8] >> (p % 8)) & 1
+                image_row = height - 1 - stored_row if rows == "bottom-up" else stored_row
+                spikes[t, image_row, x] = (data[p // 8] >> (p % 8)) & 1
     return spikes
 
 

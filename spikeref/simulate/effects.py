@@ -8,7 +8,7 @@ applies, in this order:
    fixed for the whole recording (fixed-pattern noise; the same seed gives the same pattern);
 2. ``random_phase`` — initial accumulator ``~ U[0, E_th,x)`` instead of 0;
 3. ``hot_pixels`` — a fraction of pixels receive a constant extra charge (a leaky defect
-   that fires regardless of light);
+   that fires regardless of light), the same for all or drawn from a range of rates;
 4. ``shot_noise`` — photon arrivals are Poisson: the charge of a readout is
    ``Poisson(λ) · E_th / n_th`` with ``λ = α L n_th / E_th`` photons, ``n_th`` photons per threshold;
 5. ``dark_current`` — diffuse noise (Eq. 5): ``Poisson(γ)`` extra photons per readout, each
@@ -168,10 +168,14 @@ class HotPixels:
     rate : float
         Extra firing rate of a hot pixel in spikes per readout (0…1): it collects
         ``rate · E_th`` extra charge every readout.
+    rate_max : float, optional
+        With it, each hot pixel's extra rate is drawn uniformly from ``[rate, rate_max]`` (real defects
+        differ in strength); without it every hot pixel has ``rate``.
     """
 
     fraction: float = 1e-4
     rate: float = 0.2
+    rate_max: float | None = None
     name = "hot_pixels"
 
     def __post_init__(self):
@@ -179,6 +183,9 @@ class HotPixels:
             raise ValueError(f"hot_pixels.fraction must lie in [0, 1]; got {self.fraction!r}")
         if not (np.isfinite(self.rate) and 0 <= self.rate <= 1):
             raise ValueError(f"hot_pixels.rate must lie in [0, 1] spikes per readout; got {self.rate!r}")
+        if self.rate_max is not None and not (np.isfinite(self.rate_max) and self.rate <= self.rate_max <= 1):
+            raise ValueError(f"hot_pixels.rate_max must lie in [rate, 1] = [{self.rate:g}, 1] spikes per readout; "
+                             f"got {self.rate_max!r}")
 
 
 #: Every effect by its scene-file name, in the order the simulator applies them.
@@ -341,9 +348,14 @@ def initial_phase(thresholds: np.ndarray, rng: np.random.Generator) -> np.ndarra
 
 
 def hot_pixel_charge(effect: HotPixels, threshold: float, shape, rng: np.random.Generator) -> np.ndarray:
-    """Extra charge per readout ``(H, W) float64``: ``rate · E_th`` on the hot pixels, 0 elsewhere."""
+    """Extra charge per readout ``(H, W) float64``: ``rate · E_th`` on the hot pixels, 0 elsewhere.
+
+    With ``rate_max``, each pixel's rate is ``U[rate, rate_max]``, drawn after the choice of the hot
+    pixels (so the same seed picks the same pixels with or without it).
+    """
     hot = rng.random(shape) < effect.fraction
-    return np.where(hot, effect.rate * threshold, 0.0)
+    rate = effect.rate if effect.rate_max is None else rng.uniform(effect.rate, effect.rate_max, shape)
+    return np.where(hot, rate * threshold, 0.0)
 
 
 def add_shot_noise(charge: np.ndarray, effect: ShotNoise, threshold: float, rng: np.random.Generator) -> None:

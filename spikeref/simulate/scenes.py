@@ -1405,6 +1405,7 @@ def scene_to_dict(scene: Scene) -> dict:
     camera = {f.name: getattr(scene.camera, f.name) for f in fields(Camera) if f.init}
     if camera.get("cfa", "") is None:
         camera["cfa"] = "mono"
-    effects = {name: asdict(effect) for name, effect in scene.effects.items()}
+    effects = {name: {k: v for k, v in asdict(effect).items() if v is not None}  # None: not given (TOML has no null)
+               for name, effect in scene.effects.items()}
     return {"name": scene.name, "description": scene.description, "planes": scene.planes, "camera": camera,
             "content": table, "effects": effects}
