@@ -613,8 +613,7 @@ physical limit (the noise-free mosaic of the truth through Ψ), and scores each 
 truth (PSNR, linear RGB): {labels}.  This is a small run made by the tour itself — {frames}
 scored frame per scene on {scene_list} — not the benchmark's full ladder (`docs/ladder.png`, made
 by `spikeref bench --ladder` on its eight scenes, four frames each, with the classical peers and
-the MHC demosaic; its table is in `docs/results.md`).  Here: {gains}.  The fan has no motion
-model, so its true-flow rungs are empty and the mean is over the other scenes; with one frame per
+the MHC demosaic; its table is in `docs/results.md`).  Here: {gains}.  With one frame per
 scene, differences under a few tenths of a dB are noise.
 """
 

@@ -8,7 +8,8 @@ out, averaged over the windows (planes 300 and 420 on) and then over the scenes.
 (the ``peers`` extra) run off the shelf, σ estimated blind from each plane; they are left out
 when not installed.  The guard runs as ``spikeref denoise`` runs it: for W > 10 it measures the
 noise on the window's first 10 planes (``spikeref.denoise.guard.NOISE_WINDOW``); ``--plane-noise``
-adds the guard with σ from the W-plane window itself (the former behaviour).
+adds the guard with σ from the W-plane window itself (the former behaviour), ``--bare`` the guard as a
+bare ``Denoiser()(planes, window=W)`` call runs it (no short window: the quantisation floor for W > 10).
 
 Sets (``--set``):
 
@@ -117,7 +118,7 @@ def real_cases(windows, short: int | None = None, accumulate: str = "count"):
 def main() -> None:
     from spikeref.bayer import bayer_mosaic, demosaic_bilinear
     from spikeref.denoise.denoiser import DEFAULT_WEIGHTS, Denoiser
-    from spikeref.denoise.guard import DEFAULT_RADIUS, NOISE_WINDOW
+    from spikeref.denoise.guard import DEFAULT_RADIUS, NOISE_WINDOW, sure_blend
     from spikeref.denoise.peers import PeerDenoiser, peer_available
 
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -130,7 +131,11 @@ def main() -> None:
                     help="the window's Eq. 4 rates (default) or its timing-aware charge rates (spikeref.charge), "
                          "for every method (the guard's short window too)")
     ap.add_argument("--plane-noise", action="store_true",
-                    help="also the guard with σ from the plane alone at every W (before 2026-11-24's default)")
+                    help="also the guard with σ from the plane alone at every W (before 2026-11-24's default, and "
+                         "a bare call's until 2026-11-27)")
+    ap.add_argument("--bare", action="store_true",
+                    help="also the guard as a bare call Denoiser()(planes, window=W) runs it: no short window, so "
+                         "for W > 10 only the quantisation floor (spikeref.denoise.guard.trusted_excess)")
     ap.add_argument("--guard-radius", type=int, nargs="+", default=[DEFAULT_RADIUS],
                     help="the guard's box radius(es), plane pixels (spikeref.denoise.guard.DEFAULT_RADIUS)")
     ap.add_argument("--speed", action="store_true", help="seconds per 250×400 frame, network against BM3D")
@@ -146,8 +151,13 @@ def main() -> None:
         for radius in args.guard_radius:
             guarded = Denoiser(plain.unet, guard_radius=radius)  # the weights read once
             rtag = tag + ("" if args.guard_radius == [DEFAULT_RADIUS] else f", radius {radius}")
-            if args.plane_noise:
-                methods["network + guard, σ of the plane" + rtag] = lambda p, w, s, d=guarded: d(p, window=w)
+            if args.plane_noise:  # sure_blend without carried=: the plane's own σ at every W
+                bare = Denoiser(plain.unet, shrink=False, guard="off")
+                methods["network + guard, σ of the plane" + rtag] = lambda p, w, s, d=bare, r=radius: sure_blend(
+                    p, lambda z: d(z, window=w), r, window=w, accumulate=args.accumulate)[0]
+            if args.bare:
+                methods["network + guard, no short window" + rtag] = lambda p, w, s, d=guarded: d(
+                    p, window=w, accumulate=args.accumulate)
             methods["network + guard" + rtag] = lambda p, w, s, d=guarded: (
                 d(p, window=w, short=s, short_window=NOISE_WINDOW, accumulate=args.accumulate)
                 if w > NOISE_WINDOW and s is not None else d(p, window=w, accumulate=args.accumulate))

@@ -795,6 +795,13 @@ def cmd_reconstruct(args) -> int:
                                 ("demosaic", args.demosaic), ("accumulate", args.accumulate)) if v is not None}
     if args.no_denoiser:
         chosen["denoise"] = False
+    if args.merge is not None:
+        chosen["merge"] = args.merge
+    if args.support is not None:
+        if (args.merge or "binomial") != "adaptive":
+            raise CliError("--support applies to --merge adaptive")
+        _check_int(args.support, "--support", 1, "a positive number of windows")
+        chosen["support"] = args.support
     hot_map = _hot_pixel_option(args.hot_pixels)
     if args.hot_pixels is not None:  # a map replaces the search; auto/off as given (the paper's preset: off)
         chosen["hot_pixels"] = "off" if hot_map is not None else args.hot_pixels
@@ -896,7 +903,8 @@ def _run_record(stream, params, args, guard, shrink, hot_mask=None, hot_map=None
     record = {"input": {"name": path.name if path else None,
                         "bytes": path.stat().st_size if path and path.is_file() else None,
                         "planes": len(stream), "height": stream.height, "width": stream.width, "cfa": stream.cfa},
-              "params": {k: v for k, v in asdict(params).items() if k != "hot_pixels"}}
+              "params": {k: v for k, v in asdict(params).items()
+                         if k != "hot_pixels" and not (params.merge == "binomial" and k in ("merge", "support"))}}
     if hot_mask is not None and hot_mask.any():
         record["hot_pixels"] = {"replaced": int(hot_mask.sum()),
                                 "from": str(hot_map) if hot_map is not None else "the recording"}
@@ -1495,6 +1503,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
+    p.add_argument("--merge", choices=["binomial", "robust", "adaptive"], default=None,
+                   help="how the aligned windows are merged (composed or chained warp): binomial (default; Eq. 14-15's "
+                        "weights), robust (each window weighed by how well it agrees with the reference beyond the "
+                        "noise: misaligned and occluded samples drop out), adaptive (robust, and windows beyond the "
+                        "support added where they keep agreeing, up to --support windows each side). Not in the "
+                        "paper; spikeref.merge; what each buys: docs/results.md, 'The robust merge'")
+    p.add_argument("--support", type=int, default=None,
+                   help="with --merge adaptive: the farthest window a pixel may collect, in windows each side of the "
+                        "reference (default 20: 200 planes at W = 10)")
     _add_hot_pixel_option(p, "reconstruct")
     p.add_argument("--flow-frames", choices=["denoised", "smoothed"], default=None,
                    help="what each step's flow is estimated on: smoothed (default; a Gaussian of σ = 1 "

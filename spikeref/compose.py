@@ -65,7 +65,7 @@ import numpy as np
 
 from spikeref._jit import njit, prange
 
-__all__ = ["path_table", "composed_warp", "catmull_rom_weights", "RESAMPLES"]
+__all__ = ["path_table", "composed_warp", "composed_samples", "chained_samples", "catmull_rom_weights", "RESAMPLES"]
 
 
 @njit(inline="always")
@@ -124,6 +124,24 @@ def _cubic_at(counts, t, sy, sx, h, w, weight, acc):
         acc[c] += weight * s
 
 
+@njit(inline="always")
+def _path_positions(bank, hop_flow, hop_parent, hop_start, y, x, h, w, py, px):
+    """Every node's position ``(py[q], px[q])`` of the hop tree for pixel ``(y, x)``: node ``q`` moves its parent's
+    position (the pixel's for the first hop) by flow ``hop_flow[q]`` (``−1``: no move), hop by hop."""
+    for m in range(hop_start.shape[0] - 1):
+        for q in range(hop_start[m], hop_start[m + 1]):
+            parent = hop_parent[q]
+            sy = np.float64(y) if parent < 0 else py[parent]
+            sx = np.float64(x) if parent < 0 else px[parent]
+            f = hop_flow[q]
+            if f >= 0:
+                dy, dx = _flow_at(bank, f, sy, sx, h, w)
+                sy += dy
+                sx += dx
+            py[q] = sy
+            px[q] = sx
+
+
 @njit(parallel=True)
 def _composed_warp(counts, bank, hop_flow, hop_parent, hop_start, leaf, targets, inv_window, per_window, out):
     """counts (n, C, h, w), bank (nf, 2, h, w) → out (C, h, w).
@@ -137,7 +155,6 @@ def _composed_warp(counts, bank, hop_flow, hop_parent, hop_start, leaf, targets,
     """
     n, nc, h, w = counts.shape
     npath = leaf.shape[0]
-    nhop = hop_start.shape[0] - 1
     nnode = hop_flow.shape[0]
     for y in prange(h):
         acc = np.zeros(nc)
@@ -147,18 +164,7 @@ def _composed_warp(counts, bank, hop_flow, hop_parent, hop_start, leaf, targets,
         mx = np.empty(n)
         kept = np.empty(n)
         for x in range(w):
-            for m in range(nhop):
-                for q in range(hop_start[m], hop_start[m + 1]):
-                    parent = hop_parent[q]
-                    sy = np.float64(y) if parent < 0 else py[parent]
-                    sx = np.float64(x) if parent < 0 else px[parent]
-                    f = hop_flow[q]
-                    if f >= 0:
-                        dy, dx = _flow_at(bank, f, sy, sx, h, w)
-                        sy += dy
-                        sx += dx
-                    py[q] = sy
-                    px[q] = sx
+            _path_positions(bank, hop_flow, hop_parent, hop_start, y, x, h, w, py, px)
             acc[:] = 0.0
             wsum = 0.0
             if per_window:
@@ -191,6 +197,88 @@ def _composed_warp(counts, bank, hop_flow, hop_parent, hop_start, leaf, targets,
             for c in range(nc):
                 v = acc[c] * inv_window / wsum if wsum > 0 else 0.0
                 out[c, y, x] = min(max(v, 0.0), 1.0)  # the cubic may overshoot; a rate lies in [0, 1]
+
+
+@njit(parallel=True)
+def _composed_samples(counts, bank, hop_flow, hop_parent, hop_start, leaf, targets, inv_window, out, kept_out,
+                      pos_out):
+    """As :func:`_composed_warp` with ``per_window``, but each window's sample kept apart: ``out`` ``(n, C, h, w)``
+    (rates, not clipped), ``kept_out`` ``(n, h, w)`` (the paths inside the plane that end in it) and ``pos_out``
+    ``(n, 2, h, w)`` (their mean end; NaN where none)."""
+    n, nc, h, w = counts.shape
+    npath = leaf.shape[0]
+    nnode = hop_flow.shape[0]
+    for y in prange(h):
+        acc = np.zeros(nc)
+        py = np.empty(nnode)
+        px = np.empty(nnode)
+        my = np.empty(n)
+        mx = np.empty(n)
+        kept = np.empty(n)
+        for x in range(w):
+            _path_positions(bank, hop_flow, hop_parent, hop_start, y, x, h, w, py, px)
+            my[:] = 0.0
+            mx[:] = 0.0
+            kept[:] = 0.0
+            for p in range(npath):
+                q = leaf[p]
+                if q >= 0:
+                    sy = py[q]
+                    sx = px[q]
+                else:
+                    sy = np.float64(y)
+                    sx = np.float64(x)
+                if sy < -0.5 or sy > h - 0.5 or sx < -0.5 or sx > w - 0.5:
+                    continue
+                t = targets[p]
+                my[t] += sy
+                mx[t] += sx
+                kept[t] += 1.0
+            for t in range(n):
+                kept_out[t, y, x] = kept[t]
+                if kept[t] > 0:
+                    sy = my[t] / kept[t]
+                    sx = mx[t] / kept[t]
+                    pos_out[t, 0, y, x] = sy
+                    pos_out[t, 1, y, x] = sx
+                    acc[:] = 0.0
+                    _cubic_at(counts, t, sy, sx, h, w, 1.0, acc)
+                    for c in range(nc):
+                        out[t, c, y, x] = acc[c] * inv_window
+                else:
+                    pos_out[t, 0, y, x] = np.nan
+                    pos_out[t, 1, y, x] = np.nan
+                    for c in range(nc):
+                        out[t, c, y, x] = 0.0
+
+
+@njit(parallel=True)
+def _chained_samples(counts, start, flows, inv_window, out, valid):
+    """Continue positions ``start`` ``(2, h, w)`` (NaN: none) hop by hop along ``flows[i]`` (from the window before
+    ``counts[i]`` to it) and sample each window there: ``out`` ``(m, C, h, w)`` rates, ``valid`` ``(m, h, w)``."""
+    m, nc, h, w = counts.shape
+    for y in prange(h):
+        acc = np.zeros(nc)
+        for x in range(w):
+            sy = start[0, y, x]
+            sx = start[1, y, x]
+            ok = not (np.isnan(sy) or np.isnan(sx))
+            for i in range(m):
+                if ok:
+                    dy, dx = _flow_at(flows, i, sy, sx, h, w)
+                    sy += dy
+                    sx += dx
+                    ok = not (sy < -0.5 or sy > h - 0.5 or sx < -0.5 or sx > w - 0.5)
+                if ok:
+                    acc[:] = 0.0
+                    _cubic_at(counts, i, sy, sx, h, w, 1.0, acc)
+                    for c in range(nc):
+                        out[i, c, y, x] = acc[c] * inv_window
+                    valid[i, y, x] = 1.0
+                else:
+                    for c in range(nc):
+                        out[i, c, y, x] = 0.0
+                    valid[i, y, x] = 0.0
 
 
 def _hop_tree(hops: np.ndarray):
@@ -280,3 +368,95 @@ def composed_warp(counts, bank, hops, targets, window: float, resample: str = "p
                    hop_flow, hop_parent, hop_start, leaf, np.ascontiguousarray(tg, dtype=np.int64),
                    1.0 / float(window), resample == "window", out)
     return out
+
+
+def _check_counts_bank(c, b):
+    if c.ndim != 4:
+        raise ValueError(f"counts must have shape (n, C, h, w); got {c.shape}")
+    if b.ndim != 4 or b.shape[1] != 2 or b.shape[2:] != c.shape[2:]:
+        raise ValueError(f"flows must have shape (nf, 2, {c.shape[2]}, {c.shape[3]}); got {b.shape}")
+
+
+def composed_samples(counts, bank, hops, targets, window: float) -> tuple:
+    """Each window of the support sampled once, at the mean end of its paths, kept apart (robust merge's input).
+
+    The same positions and Catmull–Rom samples as :func:`composed_warp` with ``resample="window"``, whose frame
+    is ``clip(Σ_j kept_j · samples_j / Σ_j kept_j, 0, 1)``; here the windows are not summed, so that
+    :mod:`spikeref.merge` can weigh each by how well it agrees with the reference.
+
+    Parameters
+    ----------
+    counts, bank, hops, targets, window
+        As :func:`composed_warp`.
+
+    Returns
+    -------
+    samples : ndarray ``(n, C, h, w) float32``
+        Window ``j``'s rate (count / W) at its mean composed position; 0 where no path of it stays inside.
+    kept : ndarray ``(n, h, w) float32``
+        How many paths end in window ``j`` inside the plane (Eq. 14–15's binomial weight where all do).
+    positions : ndarray ``(n, 2, h, w) float32``
+        The mean position ``(y, x)`` in plane pixels; NaN where ``kept`` is 0.
+    """
+    c = np.asarray(counts)
+    b = np.asarray(bank)
+    _check_counts_bank(c, b)
+    hp = np.asarray(hops)
+    tg = np.asarray(targets)
+    if hp.ndim != 2 or not np.issubdtype(hp.dtype, np.integer) or tg.shape != (hp.shape[0],):
+        raise ValueError(f"hops must be (P, L) integers and targets (P,); got {hp.shape} and {tg.shape}")
+    if hp.size and (hp.min() < -1 or hp.max() >= b.shape[0]) or tg.size and (tg.min() < 0 or tg.max() >= c.shape[0]):
+        raise ValueError("hops must index the flows (−1 … nf − 1) and targets the counts (0 … n − 1)")
+    if isinstance(window, bool) or not np.isfinite(window) or window <= 0:
+        raise ValueError(f"window must be a positive number of planes; got {window!r}")
+    n, nc, h, w = c.shape
+    out = np.zeros((n, nc, h, w), np.float32)
+    kept = np.zeros((n, h, w), np.float32)
+    pos = np.zeros((n, 2, h, w), np.float32)
+    hop_flow, hop_parent, hop_start, leaf = _hop_tree(hp)
+    _composed_samples(np.ascontiguousarray(c, dtype=np.float32), np.ascontiguousarray(b, dtype=np.float32),
+                      hop_flow, hop_parent, hop_start, leaf, np.ascontiguousarray(tg, dtype=np.int64),
+                      1.0 / float(window), out, kept, pos)
+    return out, kept, pos
+
+
+def chained_samples(counts, start, flows, window: float) -> tuple:
+    """Windows beyond the composed support, reached by chaining step-0 flows from a position in the last one.
+
+    Parameters
+    ----------
+    counts : ndarray ``(m, C, h, w)``
+        The windows in the order the chain reaches them (outward from the support).
+    start : ndarray ``(2, h, w)`` float
+        Each pixel's position in the window before ``counts[0]`` (:func:`composed_samples`' ``positions`` of the
+        support's last window); NaN: the chain does not start.
+    flows : ndarray ``(m, 2, h, w)`` float
+        ``flows[i]``: the step-0 flow from the window before ``counts[i]`` to it (:mod:`spikeref.align`'s
+        convention), sampled bilinearly at the moved position, clamped to the grid.
+    window : float
+        ``W``.
+
+    Returns
+    -------
+    samples : ndarray ``(m, C, h, w) float32``
+        Catmull–Rom samples (rates) at the chained positions; 0 where not valid.
+    valid : ndarray ``(m, h, w) float32``
+        1 while the chain stays inside the plane (``[−½, h − ½] × [−½, w − ½]``), 0 from where it leaves.
+    """
+    c = np.asarray(counts)
+    f = np.asarray(flows)
+    _check_counts_bank(c, f)
+    if f.shape[0] != c.shape[0]:
+        raise ValueError(f"flows must have one flow per window ({c.shape[0]}); got {f.shape[0]}")
+    st = np.asarray(start)
+    if st.shape != (2,) + c.shape[2:]:
+        raise ValueError(f"start must have shape (2, {c.shape[2]}, {c.shape[3]}); got {st.shape}")
+    if isinstance(window, bool) or not np.isfinite(window) or window <= 0:
+        raise ValueError(f"window must be a positive number of planes; got {window!r}")
+    m, nc, h, w = c.shape
+    out = np.zeros((m, nc, h, w), np.float32)
+    valid = np.zeros((m, h, w), np.float32)
+    if m:
+        _chained_samples(np.ascontiguousarray(c, dtype=np.float32), np.ascontiguousarray(st, dtype=np.float64),
+                         np.ascontiguousarray(f, dtype=np.float32), 1.0 / float(window), out, valid)
+    return out, valid

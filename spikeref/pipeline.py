@@ -90,7 +90,8 @@ from spikeref.align_noise import estimate_noise, estimate_noise_correlation, loc
 from spikeref.bayer import bayer_mosaic, bayer_planes, luma
 from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, window_charge
 from spikeref.hot_pixels import HotPixelRepair, find_hot_pixels
-from spikeref.compose import RESAMPLES, composed_warp, path_table
+from spikeref.merge import MERGES, MergeParams, default_shells, robust_merge
+from spikeref.compose import RESAMPLES, chained_samples, composed_samples, composed_warp, path_table
 from spikeref.demosaic import DEMOSAICS, demosaic
 from spikeref.denoise.blindspot import MODES
 from spikeref.denoise.denoiser import Denoiser, bundled_weights
@@ -208,6 +209,15 @@ class ReconstructParams:
         paper: the stage ladder's "no denoiser" rung, a speed option (:meth:`fastest`).  With
         window charges the network buys little (``docs/results.md``, "The denoiser's share of
         the time"), at half the frame time.
+    merge : {"binomial", "robust", "adaptive"}
+        How the composed (or chained) warp merges the windows of the support: Eq. 14–15's binomial average
+        (default, the paper's weights); ``"robust"``: each window weighed by how well it agrees with the reference
+        beyond what the noise explains (:mod:`spikeref.merge`); ``"adaptive"``: robust, and the support grown
+        beyond Eq. 14–15's, up to ``support`` windows each side, where the samples keep agreeing (windows reached
+        by chaining step-0 flows).  Not in the paper; not with ``warp="progressive"``.
+    support : int
+        With ``merge="adaptive"``: the farthest window, in windows from the reference (default 20: 200 planes
+        at W = 10), that a pixel may collect.
     hot_pixels : {"auto", "off"}
         ``"auto"`` (default): the hot pixels found in the recording itself
         (:func:`spikeref.hot_pixels.find_hot_pixels`, on its first planes) are replaced in every window by
@@ -230,6 +240,8 @@ class ReconstructParams:
     resample: str = "window"
     denoise: bool = True
     hot_pixels: str = "auto"
+    merge: str = "binomial"
+    support: int = 20
 
     def __post_init__(self):
         for name, low in (("window", 1), ("K", 1), ("L", 0)):
@@ -256,6 +268,15 @@ class ReconstructParams:
             raise TypeError(f"denoise must be True or False; got {self.denoise!r}")
         if self.hot_pixels not in HOT_PIXELS:
             raise ValueError(f"hot_pixels must be one of {', '.join(HOT_PIXELS)}; got {self.hot_pixels!r}")
+        if self.merge not in MERGES:
+            raise ValueError(f"merge must be one of {', '.join(MERGES)}; got {self.merge!r}")
+        if self.merge != "binomial" and self.warp == "progressive":
+            raise ValueError(f"merge={self.merge!r} needs the composed or chained warp (the progressive warp merges "
+                             f"frames step by step)")
+        if isinstance(self.support, bool) or not isinstance(self.support, (int, np.integer)) or \
+                self.support < self.reach:
+            raise ValueError(f"support must be a whole number of windows ≥ L·(K−1)/2 = {self.reach}; "
+                             f"got {self.support!r}")
 
     @property
     def half(self) -> int:
@@ -400,12 +421,17 @@ class ReconstructedFrame:
         With ``keep_steps``: ``R_l`` for ``l = 0 … L`` (Fig. 5); else empty.
     flows : dict
         With ``keep_steps``: ``{(l, i): F_l(k, k+i)}`` ``(2, h, w)`` float32 on the plane grid.
+    exposure : ndarray ``(h, w) float32`` or None
+        With ``merge="robust"`` or ``"adaptive"``: the pseudo-exposure of each pixel of the plane grid in planes,
+        ``W`` times the effective number of windows merged there (:func:`spikeref.merge.robust_merge`); None
+        with Eq. 14–15's merge (``27²/141 · W`` everywhere at 10/3/3).
     """
 
     index: int
     rgb: np.ndarray
     steps: list = field(default_factory=list)
     flows: dict = field(default_factory=dict)
+    exposure: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -542,8 +568,16 @@ class Reconstructor:
             extra = {"accumulate": "charge"} if self.params.accumulate == "charge" else {}  # count: the default
             short_window = self.params.window
 
+            # the output guard on charges: a merge of consecutive window charges shares their inner edges, so it
+            # quantises like one charge over the whole support, not over its noise-equivalent exposure
+            # (docs/results.md, "Never worse than plain accumulation")
+            floor = {"floor_window": float(self.params.support_windows * self.params.window)} \
+                if self.params.accumulate == "charge" else {}
+
             def run(planes, exposure, final, short=None):
                 more = {} if short is None else {"short": short, "short_window": short_window}
+                if final:
+                    more.update(floor)
                 return denoiser(planes, mode, window=exposure, guard=None if final else "off", **extra, **more)
 
             return run
@@ -632,7 +666,8 @@ class _State:
         # step l: {k: [I_l(k) planes, D(I_l(k)) planes or None, luma or None, F_{l-1}(k, ·) if kept,
         #               (raw luma, its local noise, its noise variance) of the noise-aware search or None]}
         self.rings: list[dict] = [dict() for _ in range(self.p.L + 1)]
-        self.step0: dict[int, np.ndarray] = {}  # F_0(k, ·) of warp="chained"
+        self.step0: dict[int, np.ndarray] = {}  # F_0(k, ·) of warp="chained" and of the adaptive support
+        self.merge_windows: dict[int, np.ndarray] = {}  # the robust merge's effective windows per pixel, by frame
         self.counts: dict[int, np.ndarray] = {}
 
     # step 0 -------------------------------------------------------------
@@ -764,7 +799,7 @@ class _State:
         if step == p.L and p.warp == "chained" and p.align and hh:
             # the steps' own flows are not needed (only kept for keep_steps, which asks for them)
             return self._composed(k, None), (self.flows(step - 1, k) if self.keep_flows else None)
-        fl = self.flows(step - 1, k)
+        fl = self.step0_flows(k) if step == 1 else self.flows(step - 1, k)  # F_0 once per window, shared
         if step == p.L and p.warp == "composed" and p.align and hh:
             return self._composed(k, fl), fl
         if step == 1:  # Eq. 14: the spike planes of K windows
@@ -776,7 +811,8 @@ class _State:
             return warp_average(frames, fl), fl
 
     def step0_flows(self, k: int) -> np.ndarray:
-        """``F_0(k, k+i)``, ``i = −h … h``, computed once per window (``warp="chained"``)."""
+        """``F_0(k, k+i)``, ``i = −h … h``, computed once per window (the steps, ``warp="chained"`` and the
+        adaptive support share them)."""
         if k not in self.step0:
             self.step0[k] = self.flows(0, k)
         return self.step0[k]
@@ -817,10 +853,52 @@ class _State:
         return counts, np.stack(bank), np.asarray(hops), np.asarray(targets)
 
     def _composed(self, k: int, top: np.ndarray | None) -> np.ndarray:
-        """``I_L(k)`` with the step flows composed along every path (:mod:`spikeref.compose`)."""
+        """``I_L(k)`` with the step flows composed along every path (:mod:`spikeref.compose`), merged as
+        ``merge`` says (:mod:`spikeref.merge`)."""
         counts, bank, hops, targets = self.composed_inputs(k, top)
+        p = self.p
+        if p.merge == "binomial":
+            with self.timed("warp"):
+                return composed_warp(counts, bank, hops, targets, p.window, p.resample)
         with self.timed("warp"):
-            return composed_warp(counts, bank, hops, targets, self.p.window, self.p.resample)
+            samples, kept, pos = composed_samples(counts, bank, hops, targets, p.window)
+        n, reach = counts.shape[0], p.reach
+        valid = kept  # Eq. 14–15's path counts: the core windows' base weights
+        core = np.ones(n, bool)
+        shells = ()
+        if p.merge == "adaptive":
+            shells = default_shells(reach, p.support)
+            last = len(self.stream) // p.window - 1
+            fwd = list(range(k + reach + 1, min(k + p.support, last) + 1))
+            bwd = list(range(k - reach - 1, max(k - p.support, 0) - 1, -1))
+            parts = [samples], [valid]
+            for ahead, js, start in ((True, fwd, pos[-1]), (False, bwd, pos[0])):
+                if not js:
+                    continue
+                flows = np.stack([self.step0_flows(j - 1)[p.half + 1] if ahead else self.step0_flows(j + 1)[p.half - 1]
+                                  for j in js])
+                counts_more = np.stack([self.window_counts(j) for j in js])
+                with self.timed("warp"):
+                    more, ok = chained_samples(counts_more, start, flows, p.window)
+                if ahead:
+                    parts[0].append(more)
+                    parts[1].append(ok)
+                else:
+                    parts[0].insert(0, more[::-1])
+                    parts[1].insert(0, ok[::-1])
+            offset = len(bwd)
+            samples, valid = np.concatenate(parts[0]), np.concatenate(parts[1])
+            core = np.zeros(samples.shape[0], bool)
+            core[offset:offset + n] = True
+        else:
+            offset = 0
+        with self.timed("warp"):
+            reference = counts[reach].astype(np.float64) / p.window
+            noise = np.stack([local_noise(plane) for plane in reference])
+            est, windows = robust_merge(samples, valid, noise, offset + reach, core,
+                                        MergeParams(shells=shells))
+        self.merge_windows[k] = windows
+        return est
 
     # output ------------------------------------------------------------
     def finish(self, planes: np.ndarray) -> np.ndarray:
@@ -833,7 +911,9 @@ class _State:
     def output(self, k: int, keep_steps: bool) -> ReconstructedFrame:
         L = self.p.L
         rgb = self.finish(self.denoised(L, k)).astype(np.float32, copy=False)
-        frame = ReconstructedFrame(index=k, rgb=rgb)
+        windows = self.merge_windows.get(k)
+        frame = ReconstructedFrame(index=k, rgb=rgb,
+                                   exposure=None if windows is None else windows * np.float32(self.p.window))
         if keep_steps:
             frame.steps = [self.finish(self.denoised(step, k)) for step in range(L + 1)]
             for step in range(1, L + 1):
@@ -850,11 +930,14 @@ class _State:
             low = next_k - (L - step) * hh
             for key in [key for key in ring if key < low]:
                 del ring[key]
-        low0 = next_k - L * hh
+        far = self.p.support if self.p.merge == "adaptive" else 0  # the adaptive support reads further back
+        low0 = next_k - max(L * hh, far)
         for key in [key for key in self.counts if key < low0]:
             del self.counts[key]
-        for key in [key for key in self.step0 if key < next_k - (L - 1) * hh]:
+        for key in [key for key in self.step0 if key < next_k - max((L - 1) * hh, far)]:
             del self.step0[key]
+        for key in [key for key in self.merge_windows if key < next_k]:
+            del self.merge_windows[key]
 
 
 def _fit_align_size(h: int, w: int, p: ReconstructParams) -> ReconstructParams:

@@ -142,3 +142,42 @@ def test_bad_arguments():
         composed_warp(c, b, np.zeros((1, 1), int), np.full(1, 2), 1)
     with pytest.raises(ValueError, match="window must be a positive"):
         composed_warp(c, b, np.zeros((1, 1), int), np.zeros(1, int), 0)
+
+
+# ------------------------------------------------------------------------- samples kept apart (spikeref.merge's input)
+def test_composed_samples_are_the_composed_warps_windows_kept_apart():
+    """Σ kept·samples / Σ kept, clipped, is composed_warp(resample="window"), on the golden case's inputs."""
+    from spikeref.compose import composed_samples
+    from spikeref.oracles.compose import GOLDEN_CASES
+
+    i = GOLDEN_CASES[0].make_inputs()
+    samples, kept, pos = composed_samples(i["counts"], i["bank"], i["hops"], i["targets"], int(i["window"]))
+    want = composed_warp(i["counts"], i["bank"], i["hops"], i["targets"], int(i["window"]), "window")
+    got = np.clip((kept[:, None] * samples).sum(0) / kept.sum(0)[None], 0, 1)
+    np.testing.assert_allclose(got, want, atol=2e-7)
+    assert kept.sum(0).max() == len(i["hops"]) and kept.sum(0).min() < len(i["hops"])  # some paths leave
+    assert np.array_equal(np.isnan(pos[:, 0]), kept == 0) and np.all(samples.transpose(1, 0, 2, 3)[:, kept == 0] == 0)
+
+
+def test_chained_samples_follow_a_translation_and_stop_at_the_border():
+    """Flows of a whole-pixel shift: the chain lands on x + i·shift in window i and is dropped once it leaves."""
+    from spikeref.compose import chained_samples
+
+    rng = np.random.default_rng(3)
+    m, h, w = 4, 6, 9
+    counts = rng.integers(0, 5, size=(m, 2, h, w)).astype(np.float32)
+    flows = np.zeros((m, 2, h, w), np.float32)
+    flows[:, 1] = 2.0  # two plane pixels to the right per window
+    start = np.stack(np.mgrid[0:h, 0:w]).astype(np.float64)
+    start[:, 0, 0] = np.nan  # a pixel whose chain does not start
+    samples, valid = chained_samples(counts, start, flows, 4)
+    for i in range(m):
+        shift = 2 * (i + 1)
+        inside = np.arange(w) + shift <= w - 1
+        assert np.all(valid[i][:, inside][1:] == 1) and np.all(valid[i][:, ~inside] == 0)
+        np.testing.assert_allclose(samples[i][:, 1:, inside], counts[i][:, 1:, shift:] / 4, atol=1e-6)
+    assert np.all(valid[:, 0, 0] == 0)
+    with pytest.raises(ValueError, match="one flow per window"):
+        chained_samples(counts, start, flows[:2], 4)
+    with pytest.raises(ValueError, match="start must have shape"):
+        chained_samples(counts, start[:, :2], flows, 4)

@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spikeref.denoise.guard import (carried_excess_variance, noise_sigma, probe_step, quantisation_variance,
-                                    rademacher_probe, sure_alpha, sure_blend)
+from spikeref.denoise.guard import (CARRY_FRACTION, NOISE_WINDOW, carried_excess_variance, noise_sigma, probe_step,
+                                    quantisation_variance, rademacher_probe, sure_alpha, sure_blend, trusted_excess)
 from spikeref.oracles.guard import carried_excess_variance_oracle, noise_sigma_oracle, sure_alpha_oracle
 
 
@@ -199,6 +199,53 @@ def test_carried_noise_caps_the_plane_estimate_at_long_windows():
         sure_blend(y, smoother, window=long_w, carried=[-1.0])
     with pytest.raises(ValueError, match="short_window must be a positive"):
         carried_excess_variance(short, 0, long_w)
+
+
+def test_trusted_excess_reads_the_noise_only_where_it_dominates():
+    """No cap up to NOISE_WINDOW planes; beyond, CARRY_FRACTION of a short window's excess, or only the floor."""
+    rng = np.random.default_rng(2)
+    rate = np.broadcast_to(_smooth(64, 64, 3), (2, 64, 64))
+    short = (_fired_counts(rate, NOISE_WINDOW, rng, shot=0.3) / NOISE_WINDOW).astype(np.float32)
+    assert trusted_excess(None) is None and trusted_excess(NOISE_WINDOW) is None
+    assert trusted_excess(NOISE_WINDOW, short, NOISE_WINDOW) is None  # a short window is its own
+    assert trusted_excess(NOISE_WINDOW + 1) == 0.0 and trusted_excess(200, accumulate="charge") == 0.0
+    assert trusted_excess(200, short, 2 * NOISE_WINDOW) == 0.0  # a "short" window too long to be read
+    carried = trusted_excess(200, short, NOISE_WINDOW)
+    np.testing.assert_allclose(carried, CARRY_FRACTION * carried_excess_variance(short, NOISE_WINDOW, 200))
+    assert np.all(carried > 0) and 0 < CARRY_FRACTION < 1
+    with pytest.raises(ValueError, match="short= needs short_window"):
+        trusted_excess(200, short)
+
+
+def test_a_long_window_alone_is_never_made_much_worse():
+    """At W = 200 with no short window: noise-free texture is not read as noise (the plane's σ was, and the
+    guard kept a smoother that wipes it), and a flat noisy field is still not made worse; given the short
+    window, the guard measures that field's noise and removes most of it."""
+    from scipy.ndimage import gaussian_filter
+
+    rng = np.random.default_rng(13)
+    w = 200
+
+    def smoother(z):
+        return gaussian_filter(z, (0, 2, 2)).astype(np.float32)
+
+    def mse(a, truth):
+        return float(np.mean((np.asarray(a, np.float64) - truth) ** 2))
+
+    texture = np.clip(0.3 + 0.1 * rng.standard_normal((2, 96, 96)), 0.05, 0.95)  # fine detail, no noise but the count's
+    y = (_fired_counts(texture, w, rng) / w).astype(np.float32)
+    former, _ = sure_blend(y, smoother, window=w)  # σ of the plane: texture read as noise
+    bare, alpha = sure_blend(y, smoother, window=w, carried=trusted_excess(w))
+    assert mse(former, texture) > 5 * mse(y, texture)
+    assert mse(bare, texture) < 1.05 * mse(y, texture) and alpha.mean() < 0.2
+
+    flat = np.full((2, 96, 96), 0.3)
+    noisy = (_fired_counts(flat, w, rng, shot=0.3) / w).astype(np.float32)  # noise ≈ 100× the floor's variance
+    short = (_fired_counts(flat, NOISE_WINDOW, rng, shot=0.3) / NOISE_WINDOW).astype(np.float32)
+    bare, _ = sure_blend(noisy, smoother, window=w, carried=trusted_excess(w))
+    measured, _ = sure_blend(noisy, smoother, window=w, carried=trusted_excess(w, short, NOISE_WINDOW))
+    assert mse(bare, flat) <= mse(noisy, flat)
+    assert mse(measured, flat) < 0.5 * mse(noisy, flat) < mse(bare, flat)
 
 
 def test_charge_floor_is_below_the_counts_and_bounds_ideal_pixels():

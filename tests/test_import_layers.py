@@ -46,6 +46,7 @@ LAYERS = {
     "spikeref.warp": 3,
     "spikeref._warp_kernels": 3,
     "spikeref.compose": 3,
+    "spikeref.merge": 3,
     "spikeref.demosaic": 3,
     "spikeref.simulate": 3,
     "spikeref.noise_check": 3,

@@ -612,3 +612,25 @@ def test_denoiser_training_scenes_keep_their_photographs_out_of_every_scored_set
         scene = load_scene(path)
         assert scene.content.static, path.name
         assert scene.planes >= 200 + 2 * 200 + 100, path.name  # window_max + 2 margins + the target's 100
+
+
+def test_the_fan_has_an_exact_flow():
+    """Blades turn about the centre, the toys stay: the radiance at t_ref is found at x + flow at t_other wherever
+    visible, and what the blades cover then is marked hidden (the fan's true-flow rungs and flow error use it)."""
+    import numpy as np
+
+    from spikeref.simulate.scenes import FanOverToys
+
+    fan = FanOverToys(height=64, width=64, brightness=0.5, revolutions_per_second=25.0)
+    flow, visible = fan.true_flow(100.0, 110.0)
+    pts = np.stack(np.mgrid[0:64, 0:64][::-1], axis=-1).astype(float)
+    target = pts + flow
+    before, after = fan.radiance([100.0])[0], fan.radiance([110.0])[0]
+    xi = np.clip(np.rint(target[..., 0]).astype(int), 0, 63)
+    yi = np.clip(np.rint(target[..., 1]).astype(int), 0, 63)
+    err = np.abs(after[yi, xi] - before).mean(axis=-1)
+    assert err[visible].mean() < 0.01 < err[~visible].mean()
+    assert 0.9 < visible.mean() < 1.0 and np.abs(flow).max() > 1.0  # the tips move; some toys are covered
+    still = FanOverToys(height=64, width=64, revolutions_per_second=0.0)
+    f, v = still.true_flow(0.0, 50.0)
+    assert not f.any() and v.all()

@@ -22,7 +22,7 @@ from spikeref.accumulate import accumulate as eq4
 from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
 from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, charge_rates
 from spikeref.denoise.blindspot import MODES, blindspot_denoise, check_cell
-from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, carried_excess_variance, sure_blend
+from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, sure_blend, trusted_excess
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
 from spikeref.hot_pixels import HotPixelRepair
@@ -74,7 +74,9 @@ class Denoiser:
         ``"sure"`` (default; not in the paper): blend the network's output with its input,
         ``I + α (f(I) − I)``, with ``α`` per pixel chosen by Stein's unbiased risk estimate from
         the data's own noise level (:mod:`spikeref.denoise.guard`) — one more network pass, and
-        the output is never much worse than the input where the network removes detail.
+        the output is never much worse than the input where the network removes detail (at windows
+        longer than :data:`~spikeref.denoise.guard.NOISE_WINDOW` planes the noise is taken from a
+        short window when one is given, else only the quantisation floor: :meth:`__call__`).
         ``"off"``: the network's output (then ``shrink``).  Both ``guard="off", shrink=False``
         give the paper's ``D(I)``.
     guard_radius : int
@@ -143,26 +145,40 @@ class Denoiser:
 
     def __call__(self, planes, mode: str | None = None, window: float | None = None,
                  guard: str | None = None, short=None, short_window: float | None = None,
-                 accumulate: str = "count") -> np.ndarray:
+                 accumulate: str = "count", floor_window: float | None = None) -> np.ndarray:
         """Denoise firing-rate planes ``(..., h, w)`` float (e.g. ``(4, H/2, W/2)``); same shape, float32.
 
         ``window`` is the exposure behind the rates, in planes (``W`` of Eq. 4; for a warped
         accumulation its noise-equivalent length).  A count-domain network needs it; a
         rate-domain network uses it only for the residual shrinkage (``shrink``, applied for
         ``window ≥ 1``).  ``guard`` overrides the denoiser's own guard for this call (the
-        pipeline turns it off for the frames it only aligns).  ``short`` (rates of the planes' shape)
-        and ``short_window`` (planes) are a shorter window of the same stream, e.g. the first
-        :data:`~spikeref.denoise.guard.NOISE_WINDOW` planes of this one: the guard then measures
-        the noise there and carries it to ``window``
-        (:func:`~spikeref.denoise.guard.carried_excess_variance`; texture is not read as noise at
-        long windows).  Used only with the guard and ``window``; :meth:`frames` passes them.
+        pipeline turns it off for the frames it only aligns).
+
+        With the guard, ``window`` also says how far the plane's own noise estimate can be trusted
+        (:func:`~spikeref.denoise.guard.trusted_excess`): up to
+        :data:`~spikeref.denoise.guard.NOISE_WINDOW` planes it is; at longer windows texture and the
+        sensor's fixed pattern pass for noise, so the guard takes only the noise every spike count has
+        (the quantisation floor) — never much worse than the input ``planes``, at the price of part of
+        the gain on noisier sensors — unless it is given ``short`` (rates of the planes' shape) and
+        ``short_window`` (planes, at most ``NOISE_WINDOW``): a shorter window of the same stream,
+        e.g. the first ``NOISE_WINDOW`` planes of this one (:meth:`frames` passes them), on which it
+        measures the noise and carries :data:`~spikeref.denoise.guard.CARRY_FRACTION` of its excess
+        over the floor to ``window``
+        (:func:`~spikeref.denoise.guard.carried_excess_variance`).  A ``short`` longer than
+        ``NOISE_WINDOW`` planes is not read (the floor is taken).  Without ``window`` the guard
+        uses the plane's own noise estimate.
         ``accumulate="charge"`` says the planes are :mod:`spikeref.charge` rates: the guard's
         noise floor is then the charge's (:func:`~spikeref.denoise.guard.quantisation_variance`).
+        ``floor_window`` (planes; default ``window``) is the exposure the guard takes the floor, the
+        carried noise and the ``NOISE_WINDOW`` test at, where it differs from the network's
+        ``window``: a merge of consecutive window charges (Eq. 15 of charges) shares its inner
+        window edges, so its quantisation is that of one charge over about its whole support, not
+        over its noise-equivalent window (``docs/results.md``, "Never worse than plain accumulation").
         """
         use = self.guard if guard is None else _check_guard(guard)
         if use == "sure":
             arr = self._check_planes(planes, window)
-            carried = None
+            short_arr = None
             if short is not None:
                 if window is None:
                     raise ValueError("short= needs window= (the exposure of planes)")
@@ -171,8 +187,15 @@ class Denoiser:
                     raise ValueError(f"short must have the shape of planes {arr.shape}; got {short_arr.shape}")
                 if short_window is None:
                     raise ValueError("short= needs short_window= (its exposure in planes)")
-                carried = carried_excess_variance(short_arr, short_window, window, accumulate)
-            out, _ = sure_blend(arr, lambda z: self._network(z, mode, window), self.guard_radius, window=window,
+            noise_at = window
+            if floor_window is not None:
+                if (isinstance(floor_window, bool)
+                        or not isinstance(floor_window, (int, float, np.integer, np.floating))
+                        or not np.isfinite(floor_window) or floor_window <= 0):
+                    raise ValueError(f"floor_window must be a positive number of planes; got {floor_window!r}")
+                noise_at = floor_window
+            carried = trusted_excess(noise_at, short_arr, short_window, accumulate)
+            out, _ = sure_blend(arr, lambda z: self._network(z, mode, window), self.guard_radius, window=noise_at,
                                 carried=carried, accumulate=accumulate)
             return out
         out = self._network(planes, mode, window)

@@ -167,6 +167,20 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
                 '[spec](spec/pipeline.md#pipeline_frames_charge))'),
     ),
     AuditRow(
+        equation="— (not in the paper; §4.2's pseudo-long exposure, merged robustly; an option)",
+        what=("the robust merge: each aligned window weighed by `r = clip(2 − z/z₀, 0, 1)` of a clipped χ² of its "
+              "difference to the merge over a 5×5 box, beyond the noise; the adaptive support: shells of windows "
+              "beyond Eq. 14–15's, reached by chaining step-0 flows, taken where `λ b² share² <` the variance they "
+              "remove ([spec](spec/merge.md#robust_merge))"),
+        function=('`spikeref.merge.robust_merge`; `spikeref.compose.composed_samples`, `chained_samples`; '
+                  '`ReconstructParams(merge="robust" | "adaptive", support=20)`'),
+        oracle='`oracles.merge.robust_merge_oracle` (pixel by pixel)',
+        tests=('`tests/test_merge.py` (oracle by hypothesis, an occluder dropped, a static scene grown, shells refused '
+               'where a far window differs), `tests/test_compose.py` (the samples against `composed_warp`), '
+               '`tests/test_pipeline.py` (the pipeline\'s merges)'),
+        golden="{robust_merge}",
+    ),
+    AuditRow(
         equation="— (not in the paper; the pipeline's default, `paper()` keeps them)",
         what=("hot pixels: found in the recording (above the second largest of the 8 same-colour neighbours by "
               "`max(0.1, 6σ)` over the stretch and in half its blocks, and alone among the 8 mosaic neighbours), "
@@ -361,19 +375,24 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
               "quantisation floor `q(p) = min(min(p, 1−p)/W, 1/(6W²))` of the network's output `p = f(I)` (clipped "
               'to [0, 1]; `W` the exposure); `∂f/∂I` by one Monte-Carlo probe (±1 from `default_rng(0)`) with step '
               '`ε_c = 0.05·√(mean over the plane of σ²)`; applied to the output only '
-              '([spec](spec/denoise.md#sure-guard)); in denoise mode at `W` > 10 `σ_c²` is capped at `e·W₀/W + mean '
-              "q(f(I))`, `e` the noise above the floor on the window's first `W₀ = 10` planes, and so is the "
-              'pipeline\'s output with `accumulate="charge"` (`W₀ = W`, the reference window; `q` then the charge\'s '
-              'floor `min(q, p²/(6W²))`) ([spec](spec/denoise.md#noise-measured-on-a-short-window-denoise-mode))'),
+              '([spec](spec/denoise.md#sure-guard)); at an exposure `W` > 10 planes `σ_c²` is capped at `κ·e·W₀/W + '
+              "mean q(f(I))`, `e` the noise above the floor on a short window of `W₀ ≤ 10` planes (denoise mode: the "
+              'window\'s first 10; the pipeline\'s output with `accumulate="charge"`: the reference window, `W₀ = W`, '
+              '`q` then the charge\'s floor `min(q, p²/(6W²))`), `κ = 0.75`, and `e = 0` where no such window is '
+              'given (a bare call, the pipeline\'s count path): the floor alone '
+              '([spec](spec/denoise.md#noise-measured-on-a-short-window-denoise-mode))'),
         function=('`spikeref.denoise.guard.sure_blend`, `noise_sigma`, `quantisation_variance`, '
-                  '`carried_excess_variance`, `sure_alpha`; `Denoiser(guard="sure")` (`--guard off` and `--paper` '
+                  '`carried_excess_variance`, `trusted_excess`, `sure_alpha`; `Denoiser(guard="sure")` '
+                  '(`--guard off` and `--paper` '
                   "for the paper's `D`)"),
         oracle=('`oracles.guard.noise_sigma_oracle`, `quantisation_variance_oracle`, '
                 '`carried_excess_variance_oracle`, `sure_alpha_oracle`; the pipeline oracle\'s `guard="sure"`'),
         tests=('`tests/test_guard.py` (unbiased σ on white noise, quantised rates, oracle by hypothesis, keeps an '
                "ideal denoiser, undoes a detail-killing one, low light, the short window's noise: nothing above the "
-               'floor for pure quantisation, shot noise carried as 1/W, texture given back at W = 200), '
-               '`tests/test_denoiser.py` (frames pass the first 10 planes), `tests/test_golden.py`'),
+               'floor for pure quantisation, shot noise carried as 1/W, texture given back at W = 200, a long '
+               'window alone never made much worse), `tests/test_denoiser.py` (frames pass the first 10 planes, a '
+               "bare long window takes the floor, the README's call never worse on real spikes), "
+               '`tests/test_golden.py`'),
         golden='{sure_guard} (its pieces alone), {pipeline_frames_composed_guard}',
     ),
     AuditRow(

@@ -38,6 +38,7 @@ from spikeref.oracles import dat as o_dat
 from spikeref.oracles import demosaic as o_dem
 from spikeref.oracles import effects as o_fx
 from spikeref.oracles import guard as o_guard
+from spikeref.oracles import merge as o_merge
 from spikeref.oracles import metrics as o_met
 from spikeref.oracles import pipeline as o_pipe
 from spikeref.oracles import revisible as o_rev
@@ -53,7 +54,7 @@ __all__ = ["GoldenCase", "CASES", "FAST", "MANIFEST_FORMAT", "manifest_entry", "
 
 #: The oracle modules whose ``GOLDEN_CASES`` make the registry, in the manifest's order.
 ORACLE_MODULES = (o_dat, o_cam, o_fx, o_bs, o_unet, o_acc, o_charge, o_bayer, o_dem, o_bl, o_warp, o_align,
-                  o_rev, o_shr, o_pipe, o_met, o_compose, o_guard)
+                  o_rev, o_shr, o_pipe, o_met, o_compose, o_guard, o_merge)
 
 
 @dataclass(frozen=True)
@@ -153,6 +154,12 @@ def _composed(case, i):
     return case.outputs(i, composed_warp)
 
 
+def _merge(case, i):
+    from spikeref.merge import MergeParams, robust_merge
+
+    return case.outputs(i, robust_merge, MergeParams)
+
+
 def _guard(case, i):
     from spikeref.denoise import guard
 
@@ -206,6 +213,7 @@ FAST: dict[str, Callable] = {
     "metrics_psnr_ssim_pu21": lambda c, i: c.outputs(i, _met.psnr, _met.ssim, _met.pu21_encode),
     "composed_warp": _composed,
     "sure_guard": _guard,
+    "robust_merge": _merge,
 }
 
 

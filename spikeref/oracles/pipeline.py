@@ -34,17 +34,22 @@ Options beyond the paper (defaults of :class:`spikeref.pipeline.ReconstructParam
 * ``warp="chained"``: the same, but every hop moves by the step-0 flow ``F_0(j, j+i)`` of the
   frame reached; no frame of a step ``1 … L−1`` is needed.
 * ``guard="sure"``: the output's ``D_L`` is ``I + α (f(I) − I)`` with the SURE ``α`` of
-  :func:`sure_alpha_oracle`: σ of each plane by :func:`noise_sigma_oracle` (keep 0.75), at least
-  :func:`quantisation_variance_oracle` of ``f(I)`` per pixel, the probe ``b`` the ±1 array of
+  :func:`sure_alpha_oracle`: σ of each plane by :func:`noise_sigma_oracle` (keep 0.75) — where the
+  exposure ``E_L`` exceeds 10 planes (``NOISE_WINDOW``) its square capped at the plane's mean floor (the
+  count path: no short window) —, at least :func:`quantisation_variance_oracle` of ``f(I)`` per pixel,
+  the probe ``b`` the ±1 array of
   NumPy's ``default_rng(0).integers(0, 2, shape, int8) · 2 − 1``, ``ε = 0.05`` × the root mean
-  variance of the plane, radius 8; no shrinkage.  Frames that are only aligned are unguarded.
+  variance of the plane, radius 8; no shrinkage.  Frames that are only aligned are unguarded.  On charges the
+  floor, the carried noise and the 10-plane test take the whole support ``((K−1)L + 1)·W`` in place of ``E_L``
+  (a merge of consecutive window charges shares their inner edges); the network still takes ``E_L``.
 * ``accumulate="charge"``: every window's Eq. 4 count is replaced by its charge
   (:func:`window_charge_oracle`, margin 200 readouts over the whole stream): ``I_0(j)`` is the
   charge over ``W``; ``I_1(j)`` is Eq. 15 over ``I_0(j+i)`` (Eq. 14 with one flow per window is
   Eq. 15 of the windows' rates; a charge has no spike planes); the composed warp moves charges.
-  With ``guard="sure"`` and ``L ≥ 1`` each plane's ``σ²`` is capped at
-  :func:`carried_excess_variance_oracle` of ``I_0(k)`` (``W₀ = W``, carried to ``E_L``) plus the
-  plane's mean floor, and every floor is the charge's (:func:`quantisation_variance_oracle`).
+  With ``guard="sure"``, ``L ≥ 1`` and ``E_L > 10`` each plane's ``σ²`` is capped at 0.75 ×
+  (``CARRY_FRACTION``) :func:`carried_excess_variance_oracle` of ``I_0(k)`` (``W₀ = W``, carried to
+  ``E_L``; only where ``W ≤ 10``, else 0) plus the plane's mean floor, and every floor is the charge's
+  (:func:`quantisation_variance_oracle`).
 """
 
 from __future__ import annotations
@@ -236,13 +241,18 @@ def reconstruct_oracle(spikes, cfa, window, K, L, unet_params, align_params, fra
     def sure_guard(noisy, exposure, short=None):
         noisy = noisy.astype(np.float32).astype(np.float64)
         clean = network(noisy, exposure).astype(np.float32).astype(np.float64)
+        # on charges the guard's floor, carried noise and test are at the whole support (a merge of consecutive
+        # window charges quantises like one charge over it); the network still gets the exposure
+        noise_at = float(((K - 1) * L + 1) * window) if accumulate == "charge" else exposure
         var = np.zeros_like(noisy)
         for c in range(noisy.shape[0]):
             s2 = noise_sigma_oracle(noisy[c]) ** 2
-            floors = [[quantisation_variance_oracle(clean[c, y, x], exposure, accumulate)
+            floors = [[quantisation_variance_oracle(clean[c, y, x], noise_at, accumulate)
                        for x in range(noisy.shape[2])] for y in range(noisy.shape[1])]
-            if short is not None:  # the noise measured on the reference window, carried to the exposure
-                carried = carried_excess_variance_oracle(short[c], window, exposure, accumulate=accumulate)
+            if noise_at > 10:  # longer than NOISE_WINDOW: the plane's σ reads texture and fixed pattern as noise
+                carried = 0.0  # no short window of at most 10 planes: the floor alone
+                if short is not None and window <= 10:  # the noise measured on the reference window, 3/4 of it
+                    carried = 0.75 * carried_excess_variance_oracle(short[c], window, noise_at, accumulate=accumulate)
                 s2 = min(s2, carried + float(np.mean(floors)))
             for y in range(noisy.shape[1]):
                 for x in range(noisy.shape[2]):
@@ -363,7 +373,8 @@ _CHARGE = {"outputs": ("rgb", "flows"), "warp": "composed", "guard": "sure", "fl
            "accumulate": "charge"}
 _WINDOW = {**_CHARGE, "outputs": ("rgb",), "resample": "window"}
 #: The SURE guard's settings in the manifest of the cases that use it (spikeref.denoise.guard).
-_GUARD_PARAMS = {"guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05}
+_GUARD_PARAMS = {"guard": "sure", "guard_radius": 8, "noise_keep": 0.75, "probe_seed": 0, "probe_fraction": 0.05,
+                 "noise_window": 10, "carry_fraction": 0.75}
 
 
 def _charge_case_params(resample: str) -> dict:
@@ -453,7 +464,9 @@ GOLDEN_CASES = (
         "The inputs and settings of pipeline_frames, with I_L made by composing the step flows along the 27 "
         "paths and resampling each spike window once (Catmull–Rom; spikeref.compose), and the output's D "
         "guarded by Stein's unbiased risk estimate (spikeref.denoise.guard: σ per plane from the smallest 75 % "
-        "of the 3×3 difference-of-Laplacians responses, the quantisation floor, a ±1 probe from "
+        "of the 3×3 difference-of-Laplacians responses, its square capped at the plane's mean quantisation "
+        "floor since the exposure E_3 = 3645/141 exceeds 10 planes and no short window is given, the "
+        "quantisation floor per pixel, a ±1 probe from "
         "default_rng(0), ε = 0.05 × the plane's root mean variance, a 17×17 box); frames of steps < L and "
         "their flows as in pipeline_frames. Outputs: R_L (rgb) and the flows of frames 3 and 4. The oracle "
         "computes in float64; its outputs are stored as float32.",
@@ -485,8 +498,10 @@ GOLDEN_CASES = (
         "(spikeref.charge, margin 200 readouts: the whole stream here): I_0 is the charge over W, I_1 Eq. 15 "
         "over the I_0 of the K windows (Eq. 14 with one flow per window), flows on flow_luma(I_l) (σ = 1), I_L "
         "by the composed warp of the charges (as pipeline_frames_composed_guard), and the output's guard with "
-        "each plane's σ² capped at the noise above the charge's floor measured on I_0 of the frame's own "
-        "window and carried to the exposure, every floor the charge's p²/(6W²) bound. Outputs: R_L (rgb) and "
+        "each plane's σ² capped at 3/4 (CARRY_FRACTION) of the noise above the charge's floor measured on I_0 "
+        "of the frame's own window (W = 5 ≤ 10 planes) and carried to the whole support ((K−1)L+1)·W (a merge of "
+        "consecutive charges shares their inner edges), plus the mean floor, every floor the charge's p²/(6W²) "
+        "bound at that length. Outputs: R_L (rgb) and "
         "the flows of frames 3 and 4. The oracle computes in float64; its outputs are stored as float32.",
         _charge_case_params("path"),
         _CHARGE,

@@ -219,7 +219,7 @@ def plane_flow(content, t_ref: float, t_other: float, offset=None):
     flow : ndarray ``(2, H/2, W/2) float32`` or None
         ``(dy, dx)`` in **plane pixels** (full-resolution displacement / 2), so that
         ``plane_{t_other}[y + dy, x + dx] = plane_{t_ref}[y, x]`` (:mod:`spikeref.align`);
-        ``None`` when the content has no motion model (the fan, a user's video).
+        ``None`` when the content has no motion model (a user's video).
     visible : ndarray ``(H/2, W/2) bool`` or None
         False where the content is hidden (occlusion) or outside the view at ``t_other``.
     """

@@ -623,6 +623,43 @@ class FanOverToys(SceneContent):
             hub_rgb=(np.asarray(self.hub_color) * self.brightness).astype(f32),
         )
 
+    def _fan_coverage(self, x: np.ndarray, y: np.ndarray, t: float) -> np.ndarray:
+        """Coverage (0…1) of the fan (blades or hub) at view points ``(x, y)`` (pixel centres at integers) at time
+        ``t`` (readouts), by the formulas :meth:`radiance` draws with."""
+        cy, cx = self.height / 2.0, self.width / 2.0
+        yy, xx = y + 0.5, x + 0.5
+        r = np.hypot(yy - cy, xx - cx)
+        theta = np.arctan2(-(yy - cy), xx - cx)
+        tip = self.tip_radius
+        hub = self.hub * tip
+        sector = 2 * np.pi / self.blades
+        half = self.blade_width * (sector / 2) * (0.4 + 0.6 * np.clip(r / tip, 0, 1))
+        radial = _coverage(np.maximum(r - tip, hub * 0.5 - r))
+        omega = 2 * np.pi * self.revolutions_per_second / self.rate_hz
+        rel = np.mod(theta - omega * t, sector) - sector / 2
+        blade = _coverage((np.abs(rel) - half) * r) * radial
+        return np.maximum(blade, _coverage(r - hub))
+
+    def true_flow(self, t_ref: float, t_other: float, points: np.ndarray | None = None):
+        """The exact flow of the fan (see :meth:`SceneContent.true_flow`): a point covered by the fan at ``t_ref``
+        (coverage ≥ ½) turns with it about the centre; a point of the background stays, and is hidden at
+        ``t_other`` where the fan covers it then.  The blades are rigid: what they show stays visible."""
+        pts = _view_points(self.height, self.width) if points is None else np.asarray(points, dtype=np.float64)
+        x, y = pts[..., 0], pts[..., 1]
+        cy, cx = self.height / 2.0 - 0.5, self.width / 2.0 - 0.5  # the centre in view coordinates
+        dt = float(t_other) - float(t_ref)
+        angle = 2 * np.pi * self.revolutions_per_second / self.rate_hz * dt  # counter-clockwise on screen
+        ux, uy = x - cx, -(y - cy)
+        rx = ux * np.cos(angle) - uy * np.sin(angle)
+        ry = ux * np.sin(angle) + uy * np.cos(angle)
+        on_fan = self._fan_coverage(x, y, float(t_ref)) >= 0.5
+        flow = np.zeros(pts.shape, np.float64)
+        flow[..., 0] = np.where(on_fan, cx + rx - x, 0.0)
+        flow[..., 1] = np.where(on_fan, cy - ry - y, 0.0)
+        target = pts + flow
+        hidden = ~on_fan & (self._fan_coverage(x, y, float(t_other)) >= 0.5)
+        return flow, _in_view(target, self.height, self.width) & ~hidden
+
     def radiance(self, times) -> np.ndarray:
         t = self._times(times)
         lay = self._layers

@@ -1,0 +1,278 @@
+r"""A robust, motion-adaptive merge of the aligned windows (not in the paper; §4.2's pseudo-long exposure, made robust).
+
+Eq. 14–15 average the ``(K−1)L + 1`` windows of the support with fixed binomial weights, wherever the pixel is:
+at 10/3/3 about 52 planes of light in every output pixel, and every misaligned or occluded sample averaged in.
+This module weighs each window's sample by how well it agrees with the reference, relative to the noise the
+frames show, in the manner of burst photography's robust merges (HDR+; Wronski et al., *Handheld multi-frame
+super-resolution*), and lets the support grow beyond Eq. 14–15's where the samples keep agreeing.
+
+Inputs are what :func:`spikeref.compose.composed_samples` (and :func:`~spikeref.compose.chained_samples` beyond
+the support) give: window ``j``'s rate ``s_j(x)`` resampled once at its composed position, per Bayer plane
+``c``, and whether it lies inside the plane; and ``v_c(x)``, the noise variance of one window's rate
+(:func:`spikeref.align_noise.local_noise` of the reference window: Immerkær's estimate, which also holds the
+fixed-pattern and resampling differences two windows show).
+
+**The test of a window** (one decision per window and pixel, all four planes together).  Against the current
+estimate ``e`` (first the reference window itself, then the merge), with ``u_j = v + v_e − 2 a_j v`` the
+variance of ``s_j − e`` (``a_j`` the share of ``s_j`` in ``e``, ``v_e = v Σ a_j²``), over the
+``B × B`` box around ``x`` (``B`` = :attr:`MergeParams.box`; ``box`` means over its ``m`` pixels inside the
+plane, ``m = B²`` away from the border):
+
+.. math::
+
+    Q_j = \sum_c \sum_{box} \min\left(\frac{(s_j − e)^2}{u_j}, κ^2\right), \qquad
+    P_j = \sum_c \frac{\big(\operatorname{mean}_{box} \operatorname{clip}(s_j − e, ±κ\sqrt{u_j})\big)^2}{u_j / m},
+
+``Q`` about χ² with ``4m`` degrees of freedom and ``P`` with 4 where ``s_j`` agrees (``κ`` =
+:attr:`MergeParams.clip`: a lone spurious spike in either window counts at most ``κ²``, so it cannot throw a
+window out), ``z_j = max((Q_j − 4m)/\sqrt{8m}, (P_j − 4)/\sqrt 8)``, and the window's robustness
+``r_j = clip(2 − z_j / z_0, 0, 1)``: 1 up to ``z_0`` = :attr:`MergeParams.z`, 0 from ``2 z_0``.  The
+reference window always has ``r = 1``.  Two rounds (:attr:`MergeParams.iterations`), each
+``e = Σ r_j s_j / Σ r_j`` over the windows inside the plane, every window with weight 1 (not Eq. 14–15's
+binomial one: the robustness decides what a window is worth).
+
+**The adaptive support** (:attr:`MergeParams.shells`): beyond the core windows (those of Eq. 14–15's support),
+shells of windows at larger distances ``|j − k|`` are offered in turn, each shell window weighing what a core
+window weighs on average (``Σ_core ω / n_core``).  Each passes the test above against the current estimate
+(with ``u_j = v + v_e``: a shell window is not part of ``e``), and the shell is taken where the mean squared
+error falls by its own estimate:
+
+.. math::
+
+    λ \, b^2 \, a_{shell}^2 < \bar v \left(\frac{Σω²}{(Σω)²} − \frac{Σω'^2}{(Σω')^2}\right),
+
+``a_shell`` the share of the shell's windows in the new estimate, ``ω'`` the weights with them, ``v̄`` the planes'
+mean of ``v`` (the noise a longer average removes), ``λ`` = :attr:`MergeParams.safety`, and ``b²`` the shell's
+bias: over the box, the planes and its passing windows, the mean of ``min((s_j − e)², κ² u_j) − û_j``, clipped
+at 0, where ``û_j = v̂ + v̂ Σω²/(Σω)²`` measures the noise by how the **core** windows scatter about their merge,
+``v̂ = box(Σ_core ω_j min((s_j − e)², κ² v c_j)) / box(Σ_core ω_j c_j)``, ``c_j = 1 − 2a_j + Σa²`` (the variance of
+``s_j − e`` in units of ``v``; the same truncation on both sides).  A shell is so judged by how much worse than the
+core it agrees with the merge, whatever the noise model misses (the fixed pattern and the resampling in Immerkær's
+estimate make ``v`` too large on bright textured content, which hid the drift of chained flows on rotation and
+zoom).  Once a shell is refused at a pixel no further one is offered there.  A static pixel so collects up to
+``2·max(shells) + 1`` windows; a moving edge, an occlusion or a flow that has drifted only what agrees.  In low
+light the core windows share their inter-spike intervals (a window charge interpolates the phase between spikes
+that lie windows apart), scatter less than independent windows would, and ``v̂`` then refuses shells that would
+have paid (``docs/results.md``, "The robust merge and the adaptive support").
+
+The estimate is clipped to ``[0, 1]`` spikes per readout (the cubic may overshoot), as
+:func:`spikeref.compose.composed_warp`'s.  The literal oracle is :func:`spikeref.oracles.merge.robust_merge_oracle`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import uniform_filter
+
+__all__ = ["MergeParams", "robust_merge", "default_shells", "MERGES"]
+
+#: ``ReconstructParams.merge``: Eq. 14–15's binomial average, the robust merge at its support, or with the
+#: adaptive support.
+MERGES = ("binomial", "robust", "adaptive")
+
+
+@dataclass(frozen=True)
+class MergeParams:
+    """Parameters of :func:`robust_merge` (module doc).
+
+    Attributes
+    ----------
+    box : int
+        Odd side ``B`` of the box a window's agreement is summed over, in Bayer-plane pixels.
+    z : float
+        ``z_0``: a window whose statistic passes it loses weight, linearly to none at ``2 z_0``.
+    clip : float
+        ``κ``: the most one pixel and plane adds to ``Q`` (in units of its variance, squared).
+    iterations : int
+        Rounds of reweighting over the core windows.
+    shells : tuple of (int, int)
+        The adaptive support's shells: windows ``lo ≤ |j − k| ≤ hi`` each, offered in order; ``()`` (the
+        ``"robust"`` merge) offers none.
+    safety : float
+        ``λ``: how much more a shell's bias counts than its variance gain.
+    """
+
+    box: int = 5
+    z: float = 3.0
+    clip: float = 3.0
+    iterations: int = 2
+    shells: tuple = ()
+    safety: float = 4.0
+
+    def __post_init__(self):
+        box = self.box
+        if isinstance(box, bool) or not isinstance(box, (int, np.integer)) or box < 1 or box % 2 == 0:
+            raise ValueError(f"box must be an odd whole number ≥ 1; got {self.box!r}")
+        if isinstance(self.iterations, bool) or not isinstance(self.iterations, (int, np.integer)) or \
+                self.iterations < 1:
+            raise ValueError(f"iterations must be a whole number ≥ 1; got {self.iterations!r}")
+        for name in ("z", "clip", "safety"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not (
+                    np.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a finite number > 0; got {v!r}")
+        shells = tuple(tuple(int(b) for b in sh) for sh in self.shells)
+        last = 0
+        for lo, hi in shells:
+            if not last < lo <= hi:
+                raise ValueError(f"shells must be increasing, disjoint (lo, hi) ranges of window distances ≥ 1; "
+                                 f"got {self.shells!r}")
+            last = hi
+        object.__setattr__(self, "shells", shells)
+
+    @property
+    def reach(self) -> int:
+        """The farthest window distance the shells offer (0 without shells)."""
+        return self.shells[-1][1] if self.shells else 0
+
+
+def default_shells(core_reach: int, support: int) -> tuple:
+    """Shells from just beyond the core (``core_reach`` windows each side) to ``support``, each about half as
+    long again as the distance it starts at (at least three windows): ``(4, 6), (7, 10), (11, 16), (17, 20)`` for
+    3 and 20."""
+    shells, lo = [], core_reach + 1
+    while lo <= support:
+        hi = min(support, lo + max(2, lo // 2))
+        shells.append((lo, hi))
+        lo = hi + 1
+    return tuple(shells)
+
+
+def _box_mean(a: np.ndarray, box: int) -> np.ndarray:
+    """Mean of ``a`` over the pixels of the ``box × box`` window that lie inside the image (last two axes)."""
+    size = (1,) * (a.ndim - 2) + (box, box)
+    return uniform_filter(a, size=size, mode="constant", cval=0.0) * (box * box) / _box_count(a.shape[-2:], box)
+
+
+def _box_count(shape: tuple, box: int) -> np.ndarray:
+    """How many pixels of the ``box × box`` window around each pixel lie inside an image of ``shape``."""
+    h, w = shape
+    ny = np.minimum(np.arange(h) + box // 2, h - 1) - np.maximum(np.arange(h) - box // 2, 0) + 1
+    nx = np.minimum(np.arange(w) + box // 2, w - 1) - np.maximum(np.arange(w) - box // 2, 0) + 1
+    return (ny[:, None] * nx[None, :]).astype(np.float64)
+
+
+def _robustness(d: np.ndarray, u: np.ndarray, valid: np.ndarray, p: MergeParams) -> np.ndarray:
+    """``r_j(x)`` ``(n, h, w)`` of windows whose differences to the estimate are ``d`` ``(n, C, h, w)``, of variance
+    ``u`` (module doc)."""
+    nc = d.shape[1]
+    m = _box_count(d.shape[-2:], p.box)  # the pixels each box sums: fewer at the border
+    q = np.minimum(d * d / u, p.clip * p.clip)
+    big_q = _box_mean(q, p.box).sum(axis=1) * m
+    sd = np.sqrt(u)
+    mean_d = _box_mean(np.clip(d, -p.clip * sd, p.clip * sd), p.box)
+    big_p = (mean_d * mean_d / (u / m)).sum(axis=1)
+    z = np.maximum((big_q - nc * m) / np.sqrt(2.0 * nc * m), (big_p - nc) / np.sqrt(2.0 * nc))
+    return np.clip(2.0 - z / p.z, 0.0, 1.0) * (valid > 0)
+
+
+def robust_merge(samples, weights, noise, reference: int, core, params: MergeParams = MergeParams()) -> tuple:
+    """The robust merge of aligned windows, with the adaptive support when ``params.shells`` are given.
+
+    Parameters
+    ----------
+    samples : ndarray ``(n, C, h, w)`` float
+        Each window's rate at its aligned position (:func:`spikeref.compose.composed_samples`, then
+        :func:`~spikeref.compose.chained_samples` for windows beyond the support).
+    weights : ndarray ``(n, h, w)`` float ≥ 0
+        Each window's base weight where it agrees: Eq. 14–15's path counts for the core windows
+        (:func:`~spikeref.compose.composed_samples`' ``kept``), 0 where a window's position left the plane;
+        a shell window's is taken as 1 where it lies inside the plane and scaled to the core's mean weight.
+    noise : ndarray ``(C, h, w)`` float
+        Noise variance of one window's rate per plane and pixel (module doc).
+    reference : int
+        Index of the reference window ``k`` in ``samples``.
+    core : ndarray ``(n,)`` bool
+        The windows merged first (Eq. 14–15's support); the others are offered shell by shell, by their
+        distance ``|j − reference|``.
+    params : MergeParams
+
+    Returns
+    -------
+    estimate : ndarray ``(C, h, w) float32``
+        The merged rates, clipped to ``[0, 1]``.
+    windows : ndarray ``(h, w) float32``
+        The effective number of windows merged, ``(Σ ω)² / Σ ω²`` over the final weights ``ω`` (times ``W``: the
+        pseudo-exposure in planes).  Eq. 14–15's binomial weights at 10/3/3 give 27² / 141 = 5.17.
+    """
+    s = np.asarray(samples, dtype=np.float64)
+    if s.ndim != 4:
+        raise ValueError(f"samples must have shape (n, C, h, w); got {s.shape}")
+    n, nc, h, w = s.shape
+    base = np.asarray(weights, dtype=np.float64)
+    if base.shape != (n, h, w) or not np.all(np.isfinite(base)) or base.min(initial=0.0) < 0:
+        raise ValueError(f"weights must be finite, non-negative, of shape ({n}, {h}, {w}); got {base.shape}")
+    v = np.asarray(noise, dtype=np.float64)
+    if v.shape != (nc, h, w) or not np.all(np.isfinite(v)) or v.min(initial=0.0) < 0:
+        raise ValueError(f"noise must be a finite, non-negative ({nc}, {h}, {w}) variance map")
+    if isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not 0 <= reference < n:
+        raise ValueError(f"reference must index the windows (0 … {n - 1}); got {reference!r}")
+    core = np.asarray(core, dtype=bool)
+    if core.shape != (n,) or not core[reference]:
+        raise ValueError(f"core must be ({n},) bools that include the reference window")
+    if not isinstance(params, MergeParams):
+        raise TypeError(f"params must be a MergeParams; got {type(params).__name__}")
+    if not np.all(np.isfinite(s)):
+        raise ValueError("samples must be finite")
+    dist = np.abs(np.arange(n) - reference)
+    idx = np.flatnonzero(core)
+    ref = int(np.flatnonzero(idx == reference)[0])
+    cb = base[idx].copy()
+    cb[ref] = np.maximum(cb[ref], 1e-12)  # the reference always counts (it is where the frame is)
+    # the core: the reference first, then rounds of reweighting against the merge
+    est = s[reference]
+    share = np.zeros((idx.size, h, w))
+    share[ref] = 1.0
+    omega = share
+    for _ in range(params.iterations):
+        v_est = v * (share ** 2).sum(axis=0)  # u_j = v + v_e − 2 a_j v: the variance of s_j − e
+        u = np.maximum(v[None] + v_est[None] - 2.0 * share[:, None] * v[None], 1e-12)
+        r = _robustness(s[idx] - est[None], u, cb, params)
+        r[ref] = 1.0
+        omega = cb * r
+        share = omega / omega.sum(axis=0)
+        est = (share[:, None] * s[idx]).sum(axis=0)
+    weight_sum, weight_sq = omega.sum(axis=0), (omega * omega).sum(axis=0)
+    unit = cb.sum(axis=0) / np.maximum((cb > 0).sum(axis=0), 1)  # a shell window weighs a mean core window
+    # the noise the core windows show about their merge, per plane: E[(s_j − e)²] = v (1 − 2 a_j + Σ a²) where they
+    # agree, so this v̂ holds what the noise model misses (and the core's own misalignment): a shell is judged by
+    # how much worse than the core it agrees with the merge
+    c_core = np.maximum(1.0 - 2.0 * share + (share ** 2).sum(axis=0)[None], 1e-12)  # (n_core, h, w)
+    # each residual clipped at κ² times its own model variance, as a shell's below: the same truncation both sides
+    resid = (omega[:, None] * np.minimum((s[idx] - est[None]) ** 2, params.clip ** 2 * v[None] * c_core[:, None])
+             ).sum(axis=0)
+    dof = (omega * c_core).sum(axis=0)
+    v_hat = _box_mean(resid, params.box) / np.maximum(_box_mean(dof, params.box), 1e-12)[None]
+    # the shells, outward, each taken where it lowers the estimated mean squared error
+    alive = np.ones((h, w), bool)
+    vbar = v.mean(axis=0)  # the noise a longer average removes, as the model has it
+    for lo, hi in params.shells:
+        sh = np.flatnonzero(~core & (dist >= lo) & (dist <= hi))
+        if sh.size == 0:
+            continue
+        d = s[sh] - est[None]
+        v_est = v * weight_sq / np.maximum(weight_sum, 1e-12) ** 2  # a shell window is not part of e: u = v + v_e
+        u = np.maximum(v[None] + v_est[None], 1e-12)
+        rs = _robustness(d, u, base[sh], params)
+        passing = rs > 0
+        u_hat = v_hat[None] + (v_hat * weight_sq / np.maximum(weight_sum, 1e-12) ** 2)[None]
+        sq = np.minimum(d * d, params.clip * params.clip * u)  # a lone spurious spike counts at most κ² u
+        excess = _box_mean(((sq - u_hat) * passing[:, None]).sum(axis=0), params.box).mean(axis=0)
+        count = _box_mean(passing.astype(np.float64).sum(axis=0), params.box)
+        bias2 = np.maximum(excess / np.maximum(count, 1e-12), 0.0)
+        add = rs * unit[None]
+        new_sum = weight_sum + add.sum(axis=0)
+        new_sq = weight_sq + (add * add).sum(axis=0)
+        share_new = add.sum(axis=0) / np.maximum(new_sum, 1e-12)
+        gain = vbar * (weight_sq / np.maximum(weight_sum, 1e-12) ** 2 - new_sq / np.maximum(new_sum, 1e-12) ** 2)
+        take = alive & passing.any(axis=0) & (params.safety * bias2 * share_new ** 2 < gain)
+        alive &= take
+        add = add * take[None]
+        new_sum = weight_sum + add.sum(axis=0)
+        est = (est * weight_sum[None] + (add[:, None] * s[sh]).sum(axis=0)) / new_sum[None]
+        weight_sq = weight_sq + (add * add).sum(axis=0)
+        weight_sum = new_sum
+    windows = weight_sum * weight_sum / np.maximum(weight_sq, 1e-12)
+    return np.clip(est, 0.0, 1.0).astype(np.float32), windows.astype(np.float32)

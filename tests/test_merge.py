@@ -1,0 +1,113 @@
+"""The robust merge and its adaptive support (spikeref.merge): against its oracle, and what it is for."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from spikeref.merge import MergeParams, default_shells, robust_merge
+from spikeref.oracles.merge import robust_merge_oracle
+
+
+def _scene(h=16, w=18):
+    y, x = np.mgrid[0:h, 0:w]
+    return 0.3 + 0.15 * np.sin(x / 3.0) * np.cos(y / 4.0)
+
+
+def _windows(n, sigma, seed, h=16, w=18):
+    rng = np.random.default_rng(seed)
+    return (_scene(h, w)[None, None] + rng.normal(0.0, sigma, size=(n, 4, h, w))).astype(np.float32)
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(0, 2 ** 31 - 1), st.integers(1, 2), st.sampled_from([1, 3, 5]), st.booleans())
+def test_the_merge_is_its_oracle(seed, half, box, shells):
+    rng = np.random.default_rng(seed)
+    n, h, w = 2 * (half + 2) + 1, 6, 7
+    samples = (0.3 + rng.normal(0, 0.05, size=(n, 4, h, w)) + (rng.random((n, 1, 1, 1)) < 0.3) * 0.3)
+    weights = rng.integers(0, 4, size=(n, h, w)).astype(np.float64)
+    noise = rng.uniform(0.5, 2.0, size=(4, h, w)) * 0.05 ** 2
+    ref = n // 2
+    core = np.abs(np.arange(n) - ref) <= half
+    params = MergeParams(box=box, shells=((half + 1, half + 1), (half + 2, half + 2)) if shells else ())
+    est, windows = robust_merge(samples, weights, noise, ref, core, params)
+    want, want_windows = robust_merge_oracle(samples, weights, noise, ref, core, params)
+    np.testing.assert_allclose(est, want, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(windows, want_windows, rtol=1e-5)
+
+
+def test_where_all_windows_agree_the_core_is_eq_14_15():
+    """Noise alone: every window keeps its weight, the merge is the weighted mean (Eq. 14–15's binomial one)."""
+    samples = _windows(7, 0.02, 1)
+    weights = np.broadcast_to(np.array([1.0, 3, 6, 7, 6, 3, 1])[:, None, None], (7, 16, 18))
+    noise = np.full((4, 16, 18), 0.02 ** 2)
+    est, windows = robust_merge(samples, weights, noise, 3, np.ones(7, bool))
+    plain = (weights[:, None] * samples).sum(0) / weights.sum(0)
+    assert np.median(windows) == pytest.approx(27 ** 2 / 141, rel=1e-6)
+    assert np.mean(np.abs(windows - 27 ** 2 / 141) < 1e-4) > 0.85  # noise alone passes z0 in a few boxes
+    assert np.mean(np.abs(est - plain)) < 5e-4
+
+
+def test_an_occluder_in_some_windows_is_dropped():
+    """A block that two windows show and the reference does not (an occlusion, a ghost) leaves the merge."""
+    samples = _windows(7, 0.02, 2)
+    samples[[1, 5], :, 4:10, 5:12] += 0.4
+    weights = np.ones((7, 16, 18))
+    noise = np.full((4, 16, 18), 0.02 ** 2)
+    est, windows = robust_merge(samples, weights, noise, 3, np.ones(7, bool))
+    plain = samples.mean(0)
+    truth = _scene()[None]
+    assert np.abs(est - truth)[:, 5:9, 6:11].max() < 0.06 < np.abs(plain - truth)[:, 5:9, 6:11].min()
+    assert windows[6, 8] < 5.5 and np.median(windows[12:, :]) == pytest.approx(7.0)
+
+
+def test_the_support_grows_where_the_scene_holds_still_and_not_where_it_moves():
+    """Twenty-one windows of a static scene, but on the left the far windows show something else (an object that
+    moved in after the core's time): shells are taken on the right, refused on the left."""
+    n = 21
+    samples = _windows(n, 0.05, 3, 16, 24)
+    far = np.abs(np.arange(n) - 10) > 3
+    samples[far, :, :, :10] += 0.08  # under 2σ of one window: each far window alone passes the test
+    weights = np.ones((n, 16, 24))
+    noise = np.full((4, 16, 24), 0.05 ** 2)
+    core = ~far
+    params = MergeParams(shells=default_shells(3, 10))
+    est, windows = robust_merge(samples, weights, noise, 10, core, params)
+    robust, robust_windows = robust_merge(samples, weights, noise, 10, core, MergeParams())
+    assert np.mean(windows[:, 16:]) > 12 and np.mean(windows[:, :6]) < 8
+    truth = _scene(16, 24)[None]
+    err = lambda e: float(np.mean((e - truth)[:, :, 14:] ** 2))  # noqa: E731
+    assert err(est) < 0.75 * err(robust)  # static: more windows, less noise (21 against 7 at most)
+
+
+def test_default_shells_and_parameters():
+    assert default_shells(3, 20) == ((4, 6), (7, 10), (11, 16), (17, 20))
+    assert default_shells(3, 3) == ()
+    assert MergeParams(shells=[[4, 6]]).shells == ((4, 6),) and MergeParams(shells=((4, 6),)).reach == 6
+    for bad, match in (({"box": 4}, "box must be an odd"), ({"z": 0}, "z must be a finite"),
+                       ({"iterations": 0}, "iterations must be"), ({"shells": ((4, 6), (5, 8))}, "shells must be")):
+        with pytest.raises(ValueError, match=match):
+            MergeParams(**bad)
+
+
+def test_bad_arguments_are_named():
+    s = np.zeros((3, 4, 5, 5), np.float32)
+    w = np.ones((3, 5, 5))
+    v = np.full((4, 5, 5), 1e-3)
+    core = np.ones(3, bool)
+    with pytest.raises(ValueError, match="samples must have shape"):
+        robust_merge(s[0], w, v, 1, core)
+    with pytest.raises(ValueError, match="weights must be finite"):
+        robust_merge(s, -w, v, 1, core)
+    with pytest.raises(ValueError, match="noise must be"):
+        robust_merge(s, w, v[:2], 1, core)
+    with pytest.raises(ValueError, match="reference must index"):
+        robust_merge(s, w, v, 3, core)
+    with pytest.raises(ValueError, match="core must be"):
+        robust_merge(s, w, v, 1, np.array([True, False, True]))
+    with pytest.raises(TypeError, match="params must be a MergeParams"):
+        robust_merge(s, w, v, 1, core, {"box": 3})
+    bad = s.copy()
+    bad[0, 0, 0, 0] = np.nan
+    with pytest.raises(ValueError, match="samples must be finite"):
+        robust_merge(bad, w, v, 1, core)
