@@ -148,12 +148,12 @@ def main() -> None:
         plain = Denoiser.load(path, guard="off")
         if not args.no_plain:
             methods["network" + tag] = lambda p, w, s, d=plain: d(p, window=w)
+        network = Denoiser(plain.unet, shrink=False, guard="off")  # f alone, for --plane-noise's sure_blend
         for radius in args.guard_radius:
             guarded = Denoiser(plain.unet, guard_radius=radius)  # the weights read once
             rtag = tag + ("" if args.guard_radius == [DEFAULT_RADIUS] else f", radius {radius}")
             if args.plane_noise:  # sure_blend without carried=: the plane's own σ at every W
-                bare = Denoiser(plain.unet, shrink=False, guard="off")
-                methods["network + guard, σ of the plane" + rtag] = lambda p, w, s, d=bare, r=radius: sure_blend(
+                methods["network + guard, σ of the plane" + rtag] = lambda p, w, s, d=network, r=radius: sure_blend(
                     p, lambda z: d(z, window=w), r, window=w, accumulate=args.accumulate)[0]
             if args.bare:
                 methods["network + guard, no short window" + rtag] = lambda p, w, s, d=guarded: d(

@@ -98,8 +98,9 @@ def former_denoiser(path=None):
 
 
 def proposed_denoiser(path, K: int = 3, L: int = 3):
-    """The bundled (or named) network as the pipeline would call it with the change proposed on 2026-11-27 (not
-    made in ``spikeref/pipeline.py``): on window charges, the output's guard takes its floor at the support,
+    """The bundled (or named) network as the pipeline would call it with the change proposed on 2026-11-27 (since
+    made in ``spikeref/pipeline.py``, which now passes the same ``floor_window``: kept to reproduce the study's
+    table): on window charges, the output's guard takes its floor at the support,
     ``floor_window = ((K − 1)L + 1)·W``, since a merge of consecutive charges shares their inner edges.  ``W`` is
     read from ``short_window``, which the pipeline sets to its window for the output's guard."""
     from spikeref.denoise.denoiser import Denoiser

@@ -29,6 +29,7 @@ plain Python, exactly as under ``NUMBA_DISABLE_JIT=1``.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.util
 import os
@@ -127,12 +128,19 @@ def _warm_marker(tag: str) -> Path | None:
     """
     if cache_dir is None:
         return None
+    return cache_dir / "warm" / f"{tag}-{_package_digest()}"
+
+
+@functools.lru_cache(maxsize=1)
+def _package_digest() -> str:
+    """The package's source files (paths, sizes, modification times) and the Numba and Python versions, hashed:
+    read once per process (a command asks before its run and again at its end)."""
     package = Path(__file__).resolve().parent
     digest = hashlib.sha1(f"{package}|{numba.__version__}|{sys.version_info[:2]}".encode())
     for path in sorted(package.rglob("*.py")):
         st = path.stat()
         digest.update(f"|{path.relative_to(package)}:{st.st_size}:{st.st_mtime_ns}".encode())
-    return cache_dir / "warm" / f"{tag}-{digest.hexdigest()[:20]}"
+    return digest.hexdigest()[:20]
 
 
 def is_warm(tag: str) -> bool:

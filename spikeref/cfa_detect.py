@@ -70,8 +70,9 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy import ndimage
 
+from spikeref._checks import is_real, whole_number
 from spikeref.accumulate import window_counts
-from spikeref.bayer import validate_cfa
+from spikeref.bayer import bayer_planes, validate_cfa
 from spikeref.stream import as_stream
 
 __all__ = ["CfaDetectParams", "CfaGuess", "detect_cfa", "cfa_from_counts", "green_sites_contradict",
@@ -132,20 +133,17 @@ class CfaDetectParams:
 
     def __post_init__(self):
         for name in ("planes", "max_bytes", "tiles"):
-            value = getattr(self, name)
             least = 2 if name == "tiles" else 1
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < least:
-                raise ValueError(f"{name} must be a whole number ≥ {least}; got {value!r}")
-            object.__setattr__(self, name, int(value))
+            object.__setattr__(self, name, whole_number(getattr(self, name), name, least, f"a whole number ≥ {least}"))
         band = tuple(self.band) if isinstance(self.band, (tuple, list)) else None
-        if (band is None or len(band) != 2 or not all(_is_real(s) for s in band)
+        if (band is None or len(band) != 2 or not all(is_real(s) for s in band)
                 or not 0 <= band[0] < band[1] or not math.isfinite(band[1])):
             raise ValueError(f"band must be (σ1, σ2) with 0 ≤ σ1 < σ2, finite, in Bayer-plane pixels; "
                              f"got {self.band!r}")
         object.__setattr__(self, "band", (float(band[0]), float(band[1])))
         for name, lo, hi, lo_in, hi_in in _RANGES:
             value = getattr(self, name)
-            ok = _is_real(value) and math.isfinite(value) and (value >= lo if lo_in else value > lo)
+            ok = is_real(value) and math.isfinite(value) and (value >= lo if lo_in else value > lo)
             if not ok or (hi is not None and not (value <= hi if hi_in else value < hi)):
                 where = f"{'[' if lo_in else '('}{lo}, {'∞' if hi is None else hi}{']' if hi_in else ')'}"
                 raise ValueError(f"{name} must be a number in {where}; got {value!r}")
@@ -157,10 +155,6 @@ _RANGES = (("decide_z", 0, None, False, False), ("corr_tolerance", 0, None, True
            ("mean_tolerance", 0, 1, True, False), ("power_corr_ratio", 0, 1, False, False),
            ("power_contrast", 0, 1, False, False), ("red_prior", 0.5, 1, True, True),
            ("warn_confidence", 0, 1, False, True))
-
-
-def _is_real(value) -> bool:
-    return not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
 
 
 @dataclass(frozen=True)
@@ -203,7 +197,7 @@ class CfaGuess:
     @property
     def green_diagonal(self) -> str | None:
         """``"main"`` (green at (0,0) and (1,1)), ``"anti"`` (at (0,1) and (1,0)), ``None`` for mono."""
-        return green_diagonal(None if self.pattern == "mono" else self.pattern)
+        return green_diagonal(self.pattern)
 
     def as_dict(self) -> dict:
         """The fields as plain Python values (for JSON)."""
@@ -245,7 +239,7 @@ def green_sites_contradict(cfa: str | None, guess: CfaGuess, *, threshold: float
     if not isinstance(guess, CfaGuess):
         raise TypeError(f"guess must be a CfaGuess; got {type(guess).__name__}")
     threshold = CfaDetectParams().warn_confidence if threshold is None else threshold
-    if not _is_real(threshold) or not 0 <= threshold <= 1:
+    if not is_real(threshold) or not 0 <= threshold <= 1:
         raise ValueError(f"threshold must be a number in [0, 1]; got {threshold!r}")
     if guess.pattern == "mono" or guess.green_confidence < threshold:
         return False
@@ -262,12 +256,10 @@ def _fisher(r: float) -> float:
 
 
 def _band_pass(phases: np.ndarray, band: tuple) -> np.ndarray:
+    """``G_σ1 ∗ C_p − G_σ2 ∗ C_p`` of each phase ``(4, h, w)`` on its own grid (σ 0 along the phases' axis)."""
     s1, s2 = band
-    out = np.empty_like(phases)
-    for p in range(4):
-        fine = ndimage.gaussian_filter(phases[p], s1, mode="reflect") if s1 > 0 else phases[p]
-        out[p] = fine - ndimage.gaussian_filter(phases[p], s2, mode="reflect")
-    return out
+    fine = ndimage.gaussian_filter(phases, (0, s1, s1), mode="reflect") if s1 > 0 else phases
+    return fine - ndimage.gaussian_filter(phases, (0, s2, s2), mode="reflect")
 
 
 def _pair_maps(b: np.ndarray, u_phase: int, v_phase: int, col_shift: int):
@@ -296,10 +288,9 @@ def _bounds(n: int, parts: int) -> list[int]:
     return [k * n // parts for k in range(parts + 1)]
 
 
-def _texture(counts: np.ndarray, params: CfaDetectParams):
-    """``(corr_main, corr_anti, Δz, se_t)``; ``se_t = inf`` when there is no texture to compare."""
-    c = counts
-    phases = np.stack([c[0::2, 0::2], c[0::2, 1::2], c[1::2, 0::2], c[1::2, 1::2]]).astype(np.float64)
+def _texture(phases: np.ndarray, params: CfaDetectParams):
+    """``(corr_main, corr_anti, Δz, se_t)`` of the phases ``(4, h, w)`` float64; ``se_t = inf`` when there is no
+    texture to compare."""
     h, w = phases.shape[1:]
     if h < 3 or w < 3:
         return 0.0, 0.0, 0.0, math.inf
@@ -337,12 +328,10 @@ def _excess(value: float, tolerance: float, se: float) -> float:
 
 
 def _decide(counts: np.ndarray, planes: int, params: CfaDetectParams) -> CfaGuess:
-    c = counts
-    totals = np.array([c[0::2, 0::2].sum(), c[0::2, 1::2].sum(), c[1::2, 0::2].sum(), c[1::2, 1::2].sum()],
-                      dtype=np.float64)
-    per_phase = (c.shape[0] // 2) * (c.shape[1] // 2)
-    means = tuple(float(t / (per_phase * planes)) for t in totals)
-    r_main, r_anti, dz, se_t = _texture(counts, params)
+    phases = bayer_planes(counts).astype(np.float64, copy=False)  # C_p at (0,0), (0,1), (1,0), (1,1)
+    totals = phases.sum(axis=(1, 2))
+    means = tuple(float(t / (phases[0].size * planes)) for t in totals)
+    r_main, r_anti, dz, se_t = _texture(phases, params)
     k, tol_c, tol_m = params.decide_z, params.corr_tolerance, params.mean_tolerance
 
     z_t = math.copysign(_excess(dz, tol_c, se_t), dz)
@@ -420,9 +409,7 @@ def cfa_from_counts(counts, planes: int, *, params: CfaDetectParams | None = Non
         raise ValueError("counts must be finite")
     if arr.size and arr.min() < 0:
         raise ValueError("counts must be ≥ 0 (spikes per pixel)")
-    if isinstance(planes, bool) or not isinstance(planes, (int, np.integer)) or planes < 1:
-        raise ValueError(f"planes must be a whole number ≥ 1 (the planes counts sums); got {planes!r}")
-    return _decide(arr, int(planes), params)
+    return _decide(arr, whole_number(planes, "planes", 1, "a whole number ≥ 1 (the planes counts sums)"), params)
 
 
 def detect_cfa(spikes, *, planes: int | None = None, start: int = 0,
@@ -451,15 +438,15 @@ def detect_cfa(spikes, *, planes: int | None = None, start: int = 0,
     """
     params = _check_params(params)
     stream = as_stream(spikes)
-    if planes is not None and (isinstance(planes, bool) or not isinstance(planes, (int, np.integer)) or planes < 1):
-        raise ValueError(f"planes must be a whole number ≥ 1, or None for params.planes; got {planes!r}")
-    if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
-        raise ValueError(f"start must be a plane index ≥ 0; got {start!r}")
+    if planes is None:
+        planes = params.planes
+    else:
+        planes = whole_number(planes, "planes", 1, "a whole number ≥ 1, or None for params.planes")
+    start = whole_number(start, "start", 0, "a plane index ≥ 0")
     if start >= len(stream):
         raise ValueError(f"start={start} is at or past the end of the stream ({len(stream)} planes)")
     _check_size(stream.height, stream.width, "the recording")
     plane_bytes = -(-stream.height * stream.width // 8)
-    n = min(params.planes if planes is None else int(planes), len(stream) - int(start),
-            max(1, params.max_bytes // plane_bytes))
-    counts = window_counts(stream, n, start=int(start), count=1)[0]
+    n = min(planes, len(stream) - start, max(1, params.max_bytes // plane_bytes))
+    counts = window_counts(stream, n, start=start, count=1)[0]
     return _decide(counts, n, params)

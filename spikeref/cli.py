@@ -568,8 +568,12 @@ def _cmd_info(args, facts: dict) -> int:
             bar.update(n)
     rates = total / counted
     print(f"mean rate   {rates.mean():.5f} spikes/readout over all pixels")
-    guess, per_plane = None, None
-    if h % 2 == 0 and w % 2 == 0:
+    guess, per_plane, hot, hot_planes = None, None, None, 0
+    if h % 2 or w % 2:
+        print("cfa detected mono, confidence 0.00 — an odd height or width has no whole 2×2 cells")
+    else:
+        from spikeref.hot_pixels import HotPixelParams, find_hot_pixels
+
         guess = cfa_from_counts(total, counted)  # from the counts above: no plane is read twice
         if auto:
             stream.cfa = None if guess.pattern == "mono" else guess.pattern
@@ -581,12 +585,7 @@ def _cmd_info(args, facts: dict) -> int:
         for pos, (name, r) in enumerate(zip(names, per_plane, strict=True)):
             print(f"  plane {pos} at ({pos // 2},{pos % 2}){' ' + name if name else ''}: {r:.5f}")
         print(f"cfa detected {guess.pattern}, confidence {guess.confidence:.2f} — {guess.describe()}")
-    else:
-        print("cfa detected mono, confidence 0.00 — an odd height or width has no whole 2×2 cells")
-    hot, hot_planes = None, 0
-    if h % 2 == 0 and w % 2 == 0:  # as reconstruct and denoise find them (their first planes), within info's budget
-        from spikeref.hot_pixels import HotPixelParams, find_hot_pixels
-
+        # hot pixels as reconstruct and denoise find them (their first planes), within info's budget
         hot_planes = max(1, min(HotPixelParams().planes, t, INFO_SAMPLE_BYTES // max(1, plane_bytes)))
         hot = find_hot_pixels(stream, params=HotPixelParams(planes=hot_planes))
         n_hot = int(hot.sum())
@@ -703,12 +702,10 @@ def cmd_denoise(args) -> int:
     _bundled_weights_by_default(args, args.accumulate)
     den = _load_denoiser(args.weights, accumulate=args.accumulate, mode=args.mode, lam=args.lam,
                          shrink=not args.no_shrink, guard=args.guard)
-    hot_map = _hot_pixel_option(args.hot_pixels)
-    hot = _hot_pixel_map(hot_map, stream)
-    if hot is None and args.hot_pixels != "off":
-        from spikeref.hot_pixels import find_hot_pixels
+    from spikeref.hot_pixels import hot_pixels_to_replace
 
-        hot = find_hot_pixels(stream)
+    hot_map = _hot_pixel_option(args.hot_pixels)
+    hot = hot_pixels_to_replace(stream, "off" if args.hot_pixels == "off" else "auto", _hot_pixel_map(hot_map, stream))
     _say_hot_pixels(hot, hot_map)
     _compiling_note(args, f"denoise-{args.accumulate}")
     made = den.frames(stream, args.window, start=args.start + frames.start * args.window, count=len(frames),
@@ -959,12 +956,13 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map) -
     frames = _frames_in(args, frame_range(len(stream), params.window, params.K, params.L), params)
     if params.denoise:  # refused here, not on every worker
         _load_denoiser(args.weights, accumulate=params.accumulate, mode=params.mode, guard=guard, shrink=shrink)
-    hot = _hot_pixel_map(hot_map, stream)
-    if hot is None:  # found once here, in the recording's first planes, and sent to every chunk
-        from spikeref.hot_pixels import find_hot_pixels
+    from spikeref.hot_pixels import find_hot_pixels
 
-        hot = find_hot_pixels(stream) if params.hot_pixels == "auto" else \
-            np.zeros((stream.height, stream.width), dtype=bool)
+    # found once here, in the recording's first planes, and sent to every chunk (a map, even an empty one, is used
+    # as it is: the chunks search for none)
+    hot = _hot_pixel_map(hot_map, stream)
+    if hot is None and params.hot_pixels == "auto":
+        hot = find_hot_pixels(stream)
     _say_hot_pixels(hot, hot_map)
     with _output_phase():
         _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink, hot, hot_map), args.resume)
@@ -1303,7 +1301,7 @@ CALIBRATE_MIN_EXCESS = 0.02
 
 def cmd_calibrate(args) -> int:
     """``spikeref calibrate DARK -o map.npz``: the hot pixels of a (dark) recording, as a map."""
-    from spikeref.hot_pixels import HotPixelParams, find_hot_pixels, hot_pixel_excess, save_hot_pixel_map
+    from spikeref.hot_pixels import HotPixelParams, hot_pixel_excess, save_hot_pixel_map
 
     _check_output_file(args.output, "-o/--output", (".npz",), "hot-pixel map")
     _check_int(args.planes, "--planes", 8, "a number of readouts ≥ 8")
@@ -1313,10 +1311,9 @@ def cmd_calibrate(args) -> int:
                        f"{stream.width}")
     if len(stream) < 8:
         raise CliError(f"{len(stream)} planes: too few to tell a hot pixel (at least 8)")
-    params = HotPixelParams(planes=args.planes, min_excess=CALIBRATE_MIN_EXCESS)
-    mask = find_hot_pixels(stream, params=params)
+    found = hot_pixel_excess(stream, params=HotPixelParams(planes=args.planes, min_excess=CALIBRATE_MIN_EXCESS))
+    mask, excess = found["hot"], found["excess"]
     planes = min(args.planes, len(stream))
-    excess = hot_pixel_excess(stream, params=params)["excess"]
     with _output_phase():
         save_hot_pixel_map(args.output, mask, planes=planes, height=stream.height, width=stream.width,
                            source=str(stream.path.name if stream.path else ""))

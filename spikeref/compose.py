@@ -142,6 +142,29 @@ def _path_positions(bank, hop_flow, hop_parent, hop_start, y, x, h, w, py, px):
             px[q] = sx
 
 
+@njit(inline="always")
+def _window_ends(leaf, targets, py, px, y, x, h, w, my, mx, kept):
+    """Per window ``t``: the sum ``(my[t], mx[t])`` of the ends of its paths that lie inside the plane and their
+    number ``kept[t]``, summed in path order (a path of no hops ends at the pixel)."""
+    my[:] = 0.0
+    mx[:] = 0.0
+    kept[:] = 0.0
+    for p in range(leaf.shape[0]):
+        q = leaf[p]
+        if q >= 0:
+            sy = py[q]
+            sx = px[q]
+        else:
+            sy = np.float64(y)
+            sx = np.float64(x)
+        if sy < -0.5 or sy > h - 0.5 or sx < -0.5 or sx > w - 0.5:
+            continue
+        t = targets[p]
+        my[t] += sy
+        mx[t] += sx
+        kept[t] += 1.0
+
+
 @njit(parallel=True)
 def _composed_warp(counts, bank, hop_flow, hop_parent, hop_start, leaf, targets, inv_window, per_window, out):
     """counts (n, C, h, w), bank (nf, 2, h, w) → out (C, h, w).
@@ -167,33 +190,25 @@ def _composed_warp(counts, bank, hop_flow, hop_parent, hop_start, leaf, targets,
             _path_positions(bank, hop_flow, hop_parent, hop_start, y, x, h, w, py, px)
             acc[:] = 0.0
             wsum = 0.0
-            if per_window:
-                my[:] = 0.0
-                mx[:] = 0.0
-                kept[:] = 0.0
-            for p in range(npath):
-                q = leaf[p]
-                if q >= 0:
-                    sy = py[q]
-                    sx = px[q]
-                else:  # a path of no hops
-                    sy = np.float64(y)
-                    sx = np.float64(x)
-                if sy < -0.5 or sy > h - 0.5 or sx < -0.5 or sx > w - 0.5:
-                    continue
-                if per_window:  # summed in path order; sampled below, once per window
-                    t = targets[p]
-                    my[t] += sy
-                    mx[t] += sx
-                    kept[t] += 1.0
-                else:
-                    _cubic_at(counts, targets[p], sy, sx, h, w, 1.0, acc)
-                    wsum += 1.0
-            if per_window:
+            if per_window:  # each window sampled once, at the mean end of its paths
+                _window_ends(leaf, targets, py, px, y, x, h, w, my, mx, kept)
                 for t in range(n):
                     if kept[t] > 0:
                         _cubic_at(counts, t, my[t] / kept[t], mx[t] / kept[t], h, w, kept[t], acc)
                         wsum += kept[t]
+            else:
+                for p in range(npath):
+                    q = leaf[p]
+                    if q >= 0:
+                        sy = py[q]
+                        sx = px[q]
+                    else:  # a path of no hops
+                        sy = np.float64(y)
+                        sx = np.float64(x)
+                    if sy < -0.5 or sy > h - 0.5 or sx < -0.5 or sx > w - 0.5:
+                        continue
+                    _cubic_at(counts, targets[p], sy, sx, h, w, 1.0, acc)
+                    wsum += 1.0
             for c in range(nc):
                 v = acc[c] * inv_window / wsum if wsum > 0 else 0.0
                 out[c, y, x] = min(max(v, 0.0), 1.0)  # the cubic may overshoot; a rate lies in [0, 1]
@@ -206,7 +221,6 @@ def _composed_samples(counts, bank, hop_flow, hop_parent, hop_start, leaf, targe
     (rates, not clipped), ``kept_out`` ``(n, h, w)`` (the paths inside the plane that end in it) and ``pos_out``
     ``(n, 2, h, w)`` (their mean end; NaN where none)."""
     n, nc, h, w = counts.shape
-    npath = leaf.shape[0]
     nnode = hop_flow.shape[0]
     for y in prange(h):
         acc = np.zeros(nc)
@@ -217,23 +231,7 @@ def _composed_samples(counts, bank, hop_flow, hop_parent, hop_start, leaf, targe
         kept = np.empty(n)
         for x in range(w):
             _path_positions(bank, hop_flow, hop_parent, hop_start, y, x, h, w, py, px)
-            my[:] = 0.0
-            mx[:] = 0.0
-            kept[:] = 0.0
-            for p in range(npath):
-                q = leaf[p]
-                if q >= 0:
-                    sy = py[q]
-                    sx = px[q]
-                else:
-                    sy = np.float64(y)
-                    sx = np.float64(x)
-                if sy < -0.5 or sy > h - 0.5 or sx < -0.5 or sx > w - 0.5:
-                    continue
-                t = targets[p]
-                my[t] += sy
-                mx[t] += sx
-                kept[t] += 1.0
+            _window_ends(leaf, targets, py, px, y, x, h, w, my, mx, kept)
             for t in range(n):
                 kept_out[t, y, x] = kept[t]
                 if kept[t] > 0:

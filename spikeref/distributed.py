@@ -24,10 +24,8 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-
-import numpy as np
 
 from spikeref.pipeline import ReconstructParams
 
@@ -138,7 +136,8 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     ``weights``, ``guard`` and ``shrink`` make the denoiser as :meth:`Denoiser.load` does (the
     bundled network for ``params.accumulate`` when ``weights`` is None).  ``hot_pixels`` is a map to
     replace (``(H, W) bool``); without one, ``params.hot_pixels="auto"`` finds them in the whole
-    recording's first planes, as a single run does, so every chunk replaces the same pixels.
+    recording's first planes, as a single run does, so every chunk replaces the same pixels
+    (:func:`spikeref.hot_pixels.hot_pixels_to_replace`).
 
     ``skip`` lists frames of the chunk already on disk (``--resume``: the caller vetted them
     with :func:`spikeref.render.frames_on_disk`, so the task reads no EXR file).
@@ -152,7 +151,7 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     """
     import resource
 
-    from spikeref.hot_pixels import find_hot_pixels
+    from spikeref.hot_pixels import hot_pixels_to_replace
     from spikeref.stream import open_spike_file
     from spikeref.io.exr import write_exr
     from spikeref.pipeline import Reconstructor
@@ -167,13 +166,11 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
     if todo:
         stream = open_spike_file(path, **open_kwargs)
         stop_plane = min(chunk.stop_plane, len(stream))  # a charge's margin may reach past the end
-        if hot_pixels is None:  # the recording's, not the chunk's (a chunk's first planes are elsewhere)
-            hot_pixels = find_hot_pixels(stream) if params.hot_pixels == "auto" else \
-                np.zeros((stream.height, stream.width), dtype=bool)
+        hot = hot_pixels_to_replace(stream, params.hot_pixels, hot_pixels)  # the recording's, not the chunk's
         view = stream.slice(chunk.first_plane, stop_plane)
         shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
         den = _denoiser(weights, params.mode, params.accumulate, guard, shrink) if params.denoise else None
-        rec = Reconstructor(view, params, den, hot_pixels=hot_pixels)
+        rec = Reconstructor(view, replace(params, hot_pixels="off"), den, hot_pixels=hot)
         for a, b in todo:
             for frame in rec.frames(a - shift, b - shift):
                 write_exr(out / exr_name(frame.index + shift), frame.rgb, half=half)
@@ -239,7 +236,8 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     resume : bool
         Skip frames whose EXR exists.
     hot_pixels : ndarray ``(H, W) bool``, optional
-        A map of the hot pixels to replace (``spikeref calibrate``); without one, ``params.hot_pixels="auto"``
+        A map of the hot pixels to replace (``spikeref calibrate``, or one found already; an empty map replaces
+        none); without one, ``params.hot_pixels="auto"``
         finds them here, once, in the recording's first planes (as a single run does) and every chunk
         replaces the same ones.
 
@@ -255,7 +253,7 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         When a chunk fails on a worker (the message names it); other chunks are cancelled,
         frames already written stay (rerun with ``resume=True``).
     """
-    from spikeref.hot_pixels import find_hot_pixels
+    from spikeref.hot_pixels import hot_pixels_to_replace
     from spikeref.stream import open_spike_file
     from spikeref.pipeline import Reconstructor
     from spikeref.render import frames_on_disk
@@ -269,9 +267,8 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         raise ValueError(f"workers must be a positive integer; got {workers!r}")
     path = Path(path).resolve()
     stream = open_spike_file(path, **open_kwargs)  # errors about the input surface here, before any task
-    if hot_pixels is None:
-        hot_pixels = find_hot_pixels(stream) if params.hot_pixels == "auto" else \
-            np.zeros((stream.height, stream.width), dtype=bool)
+    hot_pixels = hot_pixels_to_replace(stream, params.hot_pixels, hot_pixels)  # found once, for every chunk
+    params = replace(params, hot_pixels="off")  # the chunks replace this map and search for none
     avail = Reconstructor(stream, params, denoiser=lambda p: p, hot_pixels=hot_pixels).frames_available
     frames = avail if frames is None else frames
     if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:

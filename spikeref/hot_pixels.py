@@ -37,18 +37,19 @@ where the scene cannot hide or mimic anything.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from scipy.ndimage import maximum_filter, rank_filter
 
+from spikeref._checks import finite_number, whole_number
 from spikeref.accumulate import window_counts
 from spikeref.io.atomic import atomic_write
 from spikeref.stream import SpikeStream, as_stream
 
-__all__ = ["HotPixelParams", "find_hot_pixels", "hot_pixel_excess", "HotPixelRepair", "repair_oracle",
+__all__ = ["HotPixelParams", "find_hot_pixels", "hot_pixel_excess", "hot_pixels_to_replace", "HotPixelRepair",
+           "repair_oracle",
            "save_hot_pixel_map", "load_hot_pixel_map"]
 
 #: The 8 same-colour neighbours of a mosaic pixel: offsets of two pixels in each direction.
@@ -84,14 +85,9 @@ class HotPixelParams:
 
     def __post_init__(self):
         for name in ("planes", "blocks"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
-                raise ValueError(f"{name} must be a whole number ≥ 1; got {v!r}")
+            whole_number(getattr(self, name), name, 1, "a whole number ≥ 1")
         for name in ("min_excess", "sigmas", "neighbour_ratio"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not (
-                    math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be a finite number ≥ 0; got {v!r}")
+            finite_number(getattr(self, name), name)
 
 
 def _phase_reference(rates: np.ndarray) -> np.ndarray:
@@ -125,8 +121,8 @@ def hot_pixel_excess(stream, start: int = 0, params: HotPixelParams = HotPixelPa
         excess over its same-colour reference, over the stretch; ``threshold`` ``(H, W)``: what the excess must
         pass; ``block_excess`` ``(H, W)``: the median over the blocks of each block's excess; ``candidate``
         ``(H, W) bool``; ``neighbour_excess`` ``(H, W)``: the largest excess among the 8 mosaic neighbours that
-        are not candidates; ``candidate_neighbours`` ``(H, W)``: how many of the 8 are; ``planes_per_block`` and
-        ``blocks``.
+        are not candidates; ``candidate_neighbours`` ``(H, W)``: how many of the 8 are; ``hot`` ``(H, W) bool``:
+        the candidates that stand alone (:func:`find_hot_pixels`' answer); ``planes_per_block`` and ``blocks``.
     """
     stream = _check_stream(stream)
     start = _check_start(stream, start)
@@ -144,9 +140,10 @@ def hot_pixel_excess(stream, start: int = 0, params: HotPixelParams = HotPixelPa
     others = np.where(candidate, -np.inf, excess)
     neighbour = maximum_filter(others, footprint=_RING, mode="constant", cval=-np.inf)
     paired = _ring_sum(candidate)
+    alone = (neighbour < params.neighbour_ratio * excess) & (paired <= 1)
     return {"rate": rate, "excess": excess, "threshold": threshold, "block_excess": block_excess,
             "candidate": candidate, "neighbour_excess": neighbour, "candidate_neighbours": paired,
-            "planes_per_block": per, "blocks": rates.shape[0]}
+            "hot": candidate & alone, "planes_per_block": per, "blocks": rates.shape[0]}
 
 
 def _ring_sum(mask: np.ndarray) -> np.ndarray:
@@ -179,9 +176,31 @@ def find_hot_pixels(stream, start: int = 0, params: HotPixelParams = HotPixelPar
         raise TypeError(f"params must be a HotPixelParams; got {type(params).__name__}")
     if len(stream) - start < 2 * params.blocks:
         return np.zeros((stream.height, stream.width), dtype=bool)
-    e = hot_pixel_excess(stream, start, params)
-    alone = (e["neighbour_excess"] < params.neighbour_ratio * e["excess"]) & (e["candidate_neighbours"] <= 1)
-    return e["candidate"] & alone
+    return hot_pixel_excess(stream, start, params)["hot"]
+
+
+def hot_pixels_to_replace(stream, mode: str = "auto", given=None) -> np.ndarray | None:
+    """The map a reconstruction replaces: ``given`` (a calibration map, its size checked), else what
+    :func:`find_hot_pixels` finds in the stream's first planes (``mode="auto"``), else none (``"off"``).
+
+    Returns
+    -------
+    ndarray ``(H, W) bool`` or None
+        None where nothing is to be replaced (``"off"``, or an empty map).
+    """
+    stream = as_stream(stream)
+    if given is not None:
+        mask = np.asarray(given)
+        if mask.dtype != bool or mask.shape != (stream.height, stream.width):
+            raise ValueError(f"hot_pixels must be a ({stream.height}, {stream.width}) bool map of the stream; "
+                             f"got {mask.dtype} of shape {mask.shape}")
+    elif mode == "auto":
+        mask = find_hot_pixels(stream)
+    elif mode == "off":
+        mask = None
+    else:
+        raise ValueError(f"mode must be 'auto' or 'off'; got {mode!r}")
+    return mask if mask is not None and mask.any() else None
 
 
 def _check_stream(stream) -> SpikeStream:

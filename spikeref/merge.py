@@ -66,6 +66,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.ndimage import uniform_filter
 
+from spikeref._checks import finite_number, whole_number
+
 __all__ = ["MergeParams", "robust_merge", "default_shells", "MERGES"]
 
 #: ``ReconstructParams.merge``: Eq. 14–15's binomial average, the robust merge at its support, or with the
@@ -102,17 +104,11 @@ class MergeParams:
     safety: float = 4.0
 
     def __post_init__(self):
-        box = self.box
-        if isinstance(box, bool) or not isinstance(box, (int, np.integer)) or box < 1 or box % 2 == 0:
+        if whole_number(self.box, "box", 1, "an odd whole number ≥ 1") % 2 == 0:
             raise ValueError(f"box must be an odd whole number ≥ 1; got {self.box!r}")
-        if isinstance(self.iterations, bool) or not isinstance(self.iterations, (int, np.integer)) or \
-                self.iterations < 1:
-            raise ValueError(f"iterations must be a whole number ≥ 1; got {self.iterations!r}")
+        whole_number(self.iterations, "iterations", 1, "a whole number ≥ 1")
         for name in ("z", "clip", "safety"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not (
-                    np.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0; got {v!r}")
+            finite_number(getattr(self, name), name, positive=True)
         shells = tuple(tuple(int(b) for b in sh) for sh in self.shells)
         last = 0
         for lo, hi in shells:

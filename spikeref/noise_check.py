@@ -133,10 +133,14 @@ class NoiseCheck:
     start: int = 0
     min_pixels: int = MIN_PIXELS
 
+    def _few(self) -> list[tuple[str, int]]:
+        """``(channel, pixels used)`` of each channel resting on fewer than ``min_pixels``."""
+        return [(c, int(n)) for c, n in zip(self.channels, self.pixels, strict=True) if n < self.min_pixels]
+
     @property
     def too_few_pixels(self) -> tuple[str, ...]:
         """Channels resting on fewer than ``min_pixels`` used pixels (none at all included)."""
-        return tuple(c for c, n in zip(self.channels, self.pixels, strict=True) if n < self.min_pixels)
+        return tuple(c for c, _ in self._few())
 
     @property
     def warnings(self) -> tuple[str, ...]:
@@ -146,10 +150,7 @@ class NoiseCheck:
         of about ``1/√n`` (see :data:`MIN_PIXELS`); a channel with no pixel has NaN statistics.
         """
         out = []
-        for c, n in zip(self.channels, self.pixels, strict=True):
-            n = int(n)
-            if n >= self.min_pixels:
-                continue
+        for c, n in self._few():
             if n == 0:
                 out.append(f"channel {c} has no pixel at or above min_rate ({self.min_rate:.3g} spikes/readout): "
                            f"its statistics are NaN")
@@ -459,10 +460,10 @@ def plot_noise_check(result: NoiseCheck, path) -> Path:
     ax = fig.add_subplot()
     x = np.asarray(result.windows)
     ax.axhline(0.0, color="0.6", linewidth=0.8)
-    few = result.too_few_pixels
+    few = dict(result._few())  # channel: pixels used, of the channels on too few (NoiseCheck.too_few_pixels)
     for c, name in enumerate(result.channels):
         color = _COLORS[name]
-        tag = f"{name} (only {int(result.pixels[c])} px)" if name in few else name
+        tag = f"{name} (only {few[name]} px)" if name in few else name
         ax.plot(x, result.mean_abs_ratio[:, c], "o-", color=color, label=f"{tag}: mean |I/E − 1|")
         ax.plot(x, result.mean_ratio[:, c], "--", color=color, alpha=0.7, label=f"{tag}: mean I/E − 1")
     ax.set_xscale("log")
@@ -470,7 +471,7 @@ def plot_noise_check(result: NoiseCheck, path) -> Path:
     ax.set_ylabel("noise ratio I_c / E[I_c] − 1")
     title = f"Fig. 4a noise check: E over {result.planes} planes"
     if few:
-        listed = ", ".join(f"{c} {int(n)}" for c, n in zip(result.channels, result.pixels, strict=True) if c in few)
+        listed = ", ".join(f"{c} {n}" for c, n in few.items())
         title += f"\nwarning: too few pixels (< {result.min_pixels}): {listed}"
     ax.set_title(title, **({"color": "tab:red", "fontsize": 10} if few else {}))
     ax.legend(fontsize=7, ncol=max(1, len(result.channels)))

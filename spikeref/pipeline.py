@@ -89,7 +89,7 @@ from spikeref.align import AlignParams, align
 from spikeref.align_noise import estimate_noise, estimate_noise_correlation, local_noise
 from spikeref.bayer import bayer_mosaic, bayer_planes, luma
 from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, window_charge
-from spikeref.hot_pixels import HotPixelRepair, find_hot_pixels
+from spikeref.hot_pixels import HotPixelRepair, hot_pixels_to_replace
 from spikeref.merge import MERGES, MergeParams, default_shells, robust_merge
 from spikeref.compose import RESAMPLES, chained_samples, composed_samples, composed_warp, path_table
 from spikeref.demosaic import DEMOSAICS, demosaic
@@ -536,17 +536,9 @@ class Reconstructor:
         self._open: list[list] = []  # [stage, start, seconds of stages nested in it]
         self._denoise = self._make_denoiser(denoiser)
         self.frames_available = frame_range(len(stream), p.window, p.K, p.L)
-        if hot_pixels is not None:
-            mask = np.asarray(hot_pixels)
-            if mask.dtype != bool or mask.shape != (stream.height, stream.width):
-                raise ValueError(f"hot_pixels must be a ({stream.height}, {stream.width}) bool map of the stream; "
-                                 f"got {mask.dtype} of shape {mask.shape}")
-        elif p.hot_pixels == "auto":  # once, before any frame (as loading the weights: not in the stage timings)
-            mask = find_hot_pixels(stream)
-        else:
-            mask = None
+        # once, before any frame (as loading the weights: not in the stage timings)
         #: the hot pixels replaced in every window ``(H, W) bool``, or None (:mod:`spikeref.hot_pixels`)
-        self.hot_pixel_mask = mask if mask is not None and mask.any() else None
+        self.hot_pixel_mask = hot_pixels_to_replace(stream, p.hot_pixels, hot_pixels)
         self._repair = HotPixelRepair(self.hot_pixel_mask) if self.hot_pixel_mask is not None else None
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray] | None:
@@ -863,40 +855,34 @@ class _State:
         with self.timed("warp"):
             samples, kept, pos = composed_samples(counts, bank, hops, targets, p.window)
         n, reach = counts.shape[0], p.reach
-        valid = kept  # Eq. 14–15's path counts: the core windows' base weights
-        core = np.ones(n, bool)
-        shells = ()
-        if p.merge == "adaptive":
+        weights = [kept]  # Eq. 14–15's path counts: the core windows' base weights
+        samples = [samples]
+        offset, shells = 0, ()
+        if p.merge == "adaptive":  # the windows beyond, each way, reached by chaining step-0 flows from the ends
             shells = default_shells(reach, p.support)
             last = len(self.stream) // p.window - 1
-            fwd = list(range(k + reach + 1, min(k + p.support, last) + 1))
-            bwd = list(range(k - reach - 1, max(k - p.support, 0) - 1, -1))
-            parts = [samples], [valid]
-            for ahead, js, start in ((True, fwd, pos[-1]), (False, bwd, pos[0])):
+            for step, stop, end in ((1, min(k + p.support, last), pos[-1]), (-1, max(k - p.support, 0), pos[0])):
+                js = list(range(k + step * (reach + 1), stop + step, step))
                 if not js:
                     continue
-                flows = np.stack([self.step0_flows(j - 1)[p.half + 1] if ahead else self.step0_flows(j + 1)[p.half - 1]
-                                  for j in js])
-                counts_more = np.stack([self.window_counts(j) for j in js])
+                flows = np.stack([self.step0_flows(j - step)[p.half + step] for j in js])  # F_0(j − step, j)
+                more_counts = np.stack([self.window_counts(j) for j in js])
                 with self.timed("warp"):
-                    more, ok = chained_samples(counts_more, start, flows, p.window)
-                if ahead:
-                    parts[0].append(more)
-                    parts[1].append(ok)
+                    more, ok = chained_samples(more_counts, end, flows, p.window)
+                if step > 0:
+                    samples.append(more)
+                    weights.append(ok)
                 else:
-                    parts[0].insert(0, more[::-1])
-                    parts[1].insert(0, ok[::-1])
-            offset = len(bwd)
-            samples, valid = np.concatenate(parts[0]), np.concatenate(parts[1])
-            core = np.zeros(samples.shape[0], bool)
-            core[offset:offset + n] = True
-        else:
-            offset = 0
+                    samples.insert(0, more[::-1])
+                    weights.insert(0, ok[::-1])
+                    offset = len(js)
+        samples, weights = np.concatenate(samples), np.concatenate(weights)
+        core = np.zeros(samples.shape[0], bool)
+        core[offset:offset + n] = True
         with self.timed("warp"):
             reference = counts[reach].astype(np.float64) / p.window
             noise = np.stack([local_noise(plane) for plane in reference])
-            est, windows = robust_merge(samples, valid, noise, offset + reach, core,
-                                        MergeParams(shells=shells))
+            est, windows = robust_merge(samples, weights, noise, offset + reach, core, MergeParams(shells=shells))
         self.merge_windows[k] = windows
         return est
 

@@ -98,9 +98,8 @@ class SpikeStream:
         """Wrap packed ``.dat`` bytes ``(T, H*Wf/8) uint8`` (a memmap or an array).
 
         ``rows`` is the order the bytes store the rows in: ``"bottom-up"`` (the spike camera's,
-        default) or ``"top-down"``.
+        default) or ``"top-down"`` (checked by the constructor).
         """
-        rows = check_rows(rows)
         file_width = width if file_width is None else file_width
         nbytes = plane_nbytes(height, file_width)
         packed = np.asarray(packed) if not isinstance(packed, np.memmap) else packed
@@ -340,10 +339,9 @@ def _lag1_correlation(spikes, axis: int, long: int = 512, short: int = 32) -> fl
     for d, n in enumerate(moved.shape):
         k = min(n, long if d == moved.ndim - 1 else short)
         block.append(slice((n - k) // 2, (n - k) // 2 + k))
-    b = np.asarray(moved[tuple(block)], dtype=np.float64)
-    r = b.copy()
+    r = np.array(moved[tuple(block)], dtype=np.float64)  # a copy (centred in place), never a view of the input
     for parity in (slice(0, None, 2), slice(1, None, 2)):
-        r[..., parity] -= b[..., parity].mean(axis=-1, keepdims=True)
+        r[..., parity] -= r[..., parity].mean(axis=-1, keepdims=True)
     energy = float((r * r).sum())
     if energy == 0.0:
         return None
@@ -377,7 +375,7 @@ def planes_last_suspected(spikes) -> bool:
     -------
     bool
     """
-    arr = spikes if isinstance(spikes, np.ndarray) else np.asarray(spikes)
+    arr = np.asarray(spikes)
     if arr.ndim != 3:
         raise ValueError(f"spikes must have 3 axes; got shape {arr.shape}")
     last = _lag1_correlation(arr, -1)

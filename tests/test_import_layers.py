@@ -23,6 +23,7 @@ ROOT = Path(spikeref.__file__).parent
 LAYERS = {
     "spikeref._jit": 0,
     "spikeref._callable": 0,
+    "spikeref._checks": 0,
     "spikeref.io": 1,
     "spikeref.stream": 2,
     "spikeref.bayer": 2,

@@ -281,6 +281,9 @@ def _place_labels(ax, items: list[tuple[float, float, str]], fontsize: float = 6
         bb = t.get_window_extent(renderer)
         t.remove()
         sizes.append((bb.width + 2, bb.height + 1))  # a pixel of air around the text
+    centres = np.array([p[:2] for p in points]).reshape(-1, 2)
+    visible = {i for i, (px, py) in enumerate(centres)
+               if inside[0] <= px <= inside[2] and inside[1] <= py <= inside[3]}  # the points a label can go to
 
     def attempt(order):
         """``{item: (dx, dy, leader)}`` (offsets in pixels) of the items placed, taken in ``order``."""
@@ -289,9 +292,9 @@ def _place_labels(ax, items: list[tuple[float, float, str]], fontsize: float = 6
         columns = []  # (text edge x, side, a row's centre y) of the labels on leaders
         placed = {}
         for i in order:
-            (px, py, r), (w, h) = points[i], sizes[i]
-            if not (inside[0] <= px <= inside[2] and inside[1] <= py <= inside[3]):
+            if i not in visible:
                 continue
+            (px, py, r), (w, h) = points[i], sizes[i]
             near = r + 2 * pt
             cand = [(near, 0.0), (-near, 0.0), (near, 0.6 * h), (near, -0.6 * h), (-near, 0.6 * h),
                     (-near, -0.6 * h)]
@@ -321,7 +324,7 @@ def _place_labels(ax, items: list[tuple[float, float, str]], fontsize: float = 6
             ok &= ~(lead & _segments_hit_boxes(start, end, boxes[len(markers):]).any(axis=1))  # legend, labels
             # straight beside its point only where no other labelled point is within a line of the text:
             # a label in a crowd would wall in the leaders of its neighbours
-            others = np.array([points[j][:2] for j in range(len(items)) if j != i]).reshape(-1, 2)
+            others = np.delete(centres, i, axis=0)
             crowd = ((others[None, :, 0] > cb[:, None, 0] - h) & (others[None, :, 0] < cb[:, None, 2] + h)
                      & (others[None, :, 1] > cb[:, None, 1] - h) & (others[None, :, 1] < cb[:, None, 3] + h))
             ok &= lead | ~crowd.any(axis=1)
@@ -343,8 +346,7 @@ def _place_labels(ax, items: list[tuple[float, float, str]], fontsize: float = 6
     order = list(range(len(items)))
     best = attempt(order)
     for _ in range(3):  # the labels left out go first, the others after them in their order
-        missing = [i for i in order if i not in best and inside[0] <= points[i][0] <= inside[2]
-                   and inside[1] <= points[i][1] <= inside[3]]
+        missing = [i for i in order if i not in best and i in visible]
         if not missing:
             break
         order = missing + [i for i in order if i not in missing]

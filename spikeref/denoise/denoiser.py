@@ -25,7 +25,7 @@ from spikeref.denoise.blindspot import MODES, blindspot_denoise, check_cell
 from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, sure_blend, trusted_excess
 from spikeref.denoise.shrinkage import shrink_residual
 from spikeref.denoise.unet import UNet
-from spikeref.hot_pixels import HotPixelRepair
+from spikeref.hot_pixels import HotPixelRepair, hot_pixels_to_replace
 
 __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR", "BUNDLED_FOR", "bundled_weights"]
 
@@ -48,6 +48,13 @@ def _check_guard(guard) -> str:
     if guard not in GUARDS:
         raise ValueError(f"guard must be one of {', '.join(GUARDS)}; got {guard!r}")
     return guard
+
+
+def _check_exposure(value, name: str) -> None:
+    """``value`` (an exposure in planes) is None or a finite number > 0; else ``ValueError`` naming ``name``."""
+    if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating))
+                              or not np.isfinite(value) or value <= 0):
+        raise ValueError(f"{name} must be a positive number of planes; got {value!r}")
 
 
 class Denoiser:
@@ -187,13 +194,8 @@ class Denoiser:
                     raise ValueError(f"short must have the shape of planes {arr.shape}; got {short_arr.shape}")
                 if short_window is None:
                     raise ValueError("short= needs short_window= (its exposure in planes)")
-            noise_at = window
-            if floor_window is not None:
-                if (isinstance(floor_window, bool)
-                        or not isinstance(floor_window, (int, float, np.integer, np.floating))
-                        or not np.isfinite(floor_window) or floor_window <= 0):
-                    raise ValueError(f"floor_window must be a positive number of planes; got {floor_window!r}")
-                noise_at = floor_window
+            _check_exposure(floor_window, "floor_window")
+            noise_at = window if floor_window is None else floor_window
             carried = trusted_excess(noise_at, short_arr, short_window, accumulate)
             out, _ = sure_blend(arr, lambda z: self._network(z, mode, window), self.guard_radius, window=noise_at,
                                 carried=carried, accumulate=accumulate)
@@ -210,10 +212,7 @@ class Denoiser:
             raise ValueError(f"planes must have shape (..., h, w); got {arr.shape}")
         if not np.issubdtype(arr.dtype, np.floating):
             raise TypeError(f"planes must be floating point firing rates; got {arr.dtype}")
-        if window is not None and (isinstance(window, bool)
-                                   or not isinstance(window, (int, float, np.integer, np.floating))
-                                   or not np.isfinite(window) or window <= 0):
-            raise ValueError(f"window must be a positive number of planes; got {window!r}")
+        _check_exposure(window, "window")
         return arr
 
     def _network(self, planes, mode, window) -> np.ndarray:
@@ -262,29 +261,25 @@ class Denoiser:
         if total < 1:
             raise ValueError(f"window={window} from plane {start} is longer than the stream ({len(stream)} planes)")
         count = total if count is None else min(int(count), total)
-        repair = None
-        if hot_pixels is not None:
-            mask = np.asarray(hot_pixels)
-            if mask.dtype != bool or mask.shape != (stream.height, stream.width):
-                raise ValueError(f"hot_pixels must be a ({stream.height}, {stream.width}) bool map of the stream; "
-                                 f"got {mask.dtype} of shape {mask.shape}")
-            repair = HotPixelRepair(mask) if mask.any() else None
+        hot = hot_pixels_to_replace(stream, "off", hot_pixels)  # the map given (its size checked), or None
+        repair = None if hot is None else HotPixelRepair(hot)
         measure = charge_rates if accumulate == "charge" else eq4
-        if repair is not None:
-            plain = measure
 
-            def measure(*a, **kw):
-                return repair.mosaic(np.ascontiguousarray(plain(*a, **kw), dtype=np.float32))
+        def rates_of(length: int, first: int, n: int) -> np.ndarray:
+            """``n`` windows of ``length`` planes from plane ``first`` (``measure``), the hot pixels replaced."""
+            out = measure(stream, length, start=first, count=n)
+            return out if repair is None else repair.mosaic(np.ascontiguousarray(out, dtype=np.float32))
+
         block, block_k = [], 0  # WINDOWS_PER_CALL windows at a time: a charge's margins are read once per call
         for k in range(count):
             first = start + k * window
             if k - block_k >= len(block):
                 block_k = k
-                block = measure(stream, window, start=first, count=min(WINDOWS_PER_CALL, count - k))
+                block = rates_of(window, first, min(WINDOWS_PER_CALL, count - k))
             rates = block[k - block_k]
             extra = {}
             if self.guard == "sure" and window > NOISE_WINDOW:
-                short = measure(stream, NOISE_WINDOW, start=first, count=1)[0]
+                short = rates_of(NOISE_WINDOW, first, 1)[0]
                 extra = {"short": bayer_planes(short), "short_window": NOISE_WINDOW}
             clean = bayer_mosaic(self(bayer_planes(rates), mode, window=window, accumulate=accumulate, **extra))
             yield k, (demosaic_bilinear(clean, stream.cfa) if stream.cfa else clean)

@@ -257,16 +257,14 @@ class CropSampler:
         s = 2 * self.patch
         wf = stream.file_width
         k = torch.arange(s, device=device)
-        if stream.rows == "top-down":
-            r_lo = y0  # stored rows y0 .. y0+s-1 hold image rows y0 .. y0+s-1
-            stored = r_lo + k
-        else:
-            r_lo = stream.height - (y0 + s)  # stored rows r_lo .. r_lo+s-1 hold image rows y0+s-1 .. y0
-            stored = r_lo + (s - 1 - k)  # image row y0 + k is stored row H-1-(y0+k)
+        if stream.rows == "top-down":  # stored rows y0 .. y0+s-1 hold image rows y0 .. y0+s-1
+            r_lo, rel = y0, k  # crop row k is stored row r_lo + rel[k]
+        else:  # stored rows r_lo .. r_lo+s-1 hold image rows y0+s-1 .. y0
+            r_lo, rel = stream.height - (y0 + s), s - 1 - k
         bit_lo = r_lo * wf + stream.col_offset + x0
         byte_lo = bit_lo // 8
         byte_hi = ((r_lo + s - 1) * wf + stream.col_offset + x0 + s + 7) // 8
-        starts = (stored - r_lo) * wf + (bit_lo - 8 * byte_lo)
+        starts = rel * wf + (bit_lo - 8 * byte_lo)
         return byte_lo, byte_hi, starts[:, None] + k[None, :]
 
     def _charge(self, stream, t: int, w: int, y0: int, x0: int, with_count: bool = False):

@@ -34,9 +34,9 @@ def unpack_dat_oracle(data, height, width, file_width=None, col_offset=0, rows="
     spikes = np.zeros((n_planes, height, width), dtype=np.uint8)
     for t in range(n_planes):
         for stored_row in range(height):
+            image_row = height - 1 - stored_row if rows == "bottom-up" else stored_row
             for x in range(width):
                 p = t * height * file_width + stored_row * file_width + col_offset + x
-                image_row = height - 1 - stored_row if rows == "bottom-up" else stored_row
                 spikes[t, image_row, x] = (data[p // 8] >> (p % 8)) & 1
     return spikes
 

@@ -599,15 +599,7 @@ class FanOverToys(SceneContent):
         h, w = self.height, self.width
         bg = (_toys_background(h, w, np.random.default_rng(self.seed)) * self.brightness).astype(np.float32)
         yy, xx = np.mgrid[0:h, 0:w] + 0.5
-        cy, cx = h / 2.0, w / 2.0
-        r = np.hypot(yy - cy, xx - cx)
-        theta = np.arctan2(-(yy - cy), xx - cx)  # counter-clockwise on screen (row 0 at the top)
-        tip = self.tip_radius
-        hub = self.hub * tip
-        sector = 2 * np.pi / self.blades
-        half = self.blade_width * (sector / 2) * (0.4 + 0.6 * np.clip(r / tip, 0, 1))  # 40 % at the axis
-        radial = _coverage(np.maximum(r - tip, hub * 0.5 - r))
-        hub_cov = _coverage(r - hub)
+        r, theta, half, radial, hub_cov = self._geometry(yy, xx)
         rows, cols = np.nonzero((radial > 0) | (hub_cov > 0))
         if rows.size:
             box = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
@@ -626,19 +618,26 @@ class FanOverToys(SceneContent):
     def _fan_coverage(self, x: np.ndarray, y: np.ndarray, t: float) -> np.ndarray:
         """Coverage (0…1) of the fan (blades or hub) at view points ``(x, y)`` (pixel centres at integers) at time
         ``t`` (readouts), by the formulas :meth:`radiance` draws with."""
+        r, theta, half, radial, hub_cov = self._geometry(y + 0.5, x + 0.5)
+        sector = 2 * np.pi / self.blades
+        omega = 2 * np.pi * self.revolutions_per_second / self.rate_hz
+        rel = np.mod(theta - omega * t, sector) - sector / 2
+        blade = _coverage((np.abs(rel) - half) * r) * radial
+        return np.maximum(blade, hub_cov)
+
+    def _geometry(self, yy: np.ndarray, xx: np.ndarray) -> tuple:
+        """At image positions ``(yy, xx)`` (pixel corners at integers): the radius and angle about the centre
+        (counter-clockwise on screen, row 0 at the top), a blade's angular half-width there, the blades' radial
+        coverage (hub to tip) and the hub's coverage."""
         cy, cx = self.height / 2.0, self.width / 2.0
-        yy, xx = y + 0.5, x + 0.5
         r = np.hypot(yy - cy, xx - cx)
         theta = np.arctan2(-(yy - cy), xx - cx)
         tip = self.tip_radius
         hub = self.hub * tip
         sector = 2 * np.pi / self.blades
-        half = self.blade_width * (sector / 2) * (0.4 + 0.6 * np.clip(r / tip, 0, 1))
+        half = self.blade_width * (sector / 2) * (0.4 + 0.6 * np.clip(r / tip, 0, 1))  # 40 % at the axis
         radial = _coverage(np.maximum(r - tip, hub * 0.5 - r))
-        omega = 2 * np.pi * self.revolutions_per_second / self.rate_hz
-        rel = np.mod(theta - omega * t, sector) - sector / 2
-        blade = _coverage((np.abs(rel) - half) * r) * radial
-        return np.maximum(blade, _coverage(r - hub))
+        return r, theta, half, radial, _coverage(r - hub)
 
     def true_flow(self, t_ref: float, t_other: float, points: np.ndarray | None = None):
         """The exact flow of the fan (see :meth:`SceneContent.true_flow`): a point covered by the fan at ``t_ref``
