@@ -79,3 +79,38 @@ def test_pipeline_fps(benchmark, report, size, n_frames, config):
     report(f"pipeline W=10 K=3 L=3, {config}, {size[0]}x{size[1]}",
            f"{1 / per_frame:6.2f} frames/s ({per_frame:6.3f} s/frame); denoised TFP (L=0) {1 / base:6.2f} frames/s; "
            f"ratio {per_frame / base:4.1f}x; outside the network {prof.outside_network:4.0%}; time: {parts}")
+
+
+def _steady_frame_time(stream, params, den, n_frames, skip) -> float:
+    """Mean seconds per frame of frames ``skip … skip + n_frames − 1`` of one run that starts 20 windows in (the
+    windows and flows every frame needs once are then made at the same pace as in a long recording)."""
+    rec = Reconstructor(stream, params, den)
+    a = rec.frames_available.start + 20
+    times, t0 = [], time.perf_counter()
+    for _ in rec.frames(a, a + skip + n_frames):
+        t1 = time.perf_counter()
+        times.append(t1 - t0)
+        t0 = t1
+    return float(np.mean(times[skip:]))
+
+
+@pytest.mark.parametrize("size, n_frames, skip", [((250, 400), 30, 10), ((1000, 1000), 5, 2)])
+def test_adaptive_merge_cost(benchmark, report, size, n_frames, skip):
+    """The defaults (the adaptive merge, ``merge_used == "adaptive"``) against Eq. 14–15's binomial merge (the
+    defaults before 2026-11-28; ``--merge binomial``), alternated in one process: the issue's bound is 0.7×."""
+    net = UNet.random(UNetSpec(width=16), seed=0)
+    stream = _stream(*size, planes=(skip + n_frames + 45) * 10)
+    configs = {"adaptive": ReconstructParams(), "binomial": ReconstructParams(merge="binomial")}
+    for params in configs.values():  # compile, and page the stream in
+        _steady_frame_time(stream, params, Denoiser(net), 1, 1)
+    got = {name: [] for name in configs}
+
+    def run():
+        for _ in range(2):
+            for name, params in configs.items():
+                got[name].append(_steady_frame_time(stream, params, Denoiser(net), n_frames, skip))
+
+    benchmark.pedantic(run, rounds=1, iterations=1)
+    ada, binom = min(got["adaptive"]), min(got["binomial"])
+    report(f"adaptive merge {size[0]}x{size[1]}", f"{1 / ada:6.2f} frames/s; binomial merge {1 / binom:6.2f} frames/s; "
+           f"ratio {binom / ada:4.2f}x of the binomial's frames/s (best of two alternated runs)")

@@ -1,12 +1,13 @@
-"""The robust merge and the adaptive support (spikeref.merge) against Eq. 14–15's binomial average, on the ladder.
+"""The merges (spikeref.merge) on the ladder: Eq. 14–15's binomial average, the robust merge, the adaptive support.
 
-Runs the stage ladder's rungs ``net`` (the denoiser on one window), ``ours`` (the defaults), ``ours_robust``
-(``ReconstructParams(merge="robust")``), ``ours_adaptive`` (``merge="adaptive"``, ``support`` 20 windows) and
+Runs the stage ladder's rungs ``net`` (the denoiser on one window), ``ours_binomial`` (``merge="binomial"``: Eq.
+14–15's weights, the defaults until 2026-11-28), ``ours_robust`` (``merge="robust"``), ``ours`` (the defaults: the
+adaptive support, ``support`` windows each side, 10 unless ``--support``), ``no_align``, ``no_denoiser`` and
 ``limit`` on the benchmark scenes (``--set bench``, seed 0: where the merge's parameters were chosen) or on the
 held-out scenes (``--set heldout``: ``scripts/heldout_scenes``, seed 11, never used to choose them), and prints
 each scene's PSNR and the differences the issue's targets name.
 
-    python scripts/study_merge.py [--set bench|heldout] [--frames 4] [--out FILE.md]
+    python scripts/study_merge.py [--set bench|heldout] [--frames 4] [--support 10] [--out FILE.md]
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 SETS = {"bench": (ROOT / "spikeref" / "bench" / "scenes", 0), "heldout": (ROOT / "scripts" / "heldout_scenes", 11)}
-RUNGS = ("net", "ours", "ours_robust", "ours_adaptive", "limit")
+RUNGS = ("net", "ours_binomial", "ours_robust", "ours", "no_align", "no_denoiser", "limit")
 
 
 def main(argv=None) -> int:
@@ -30,6 +31,7 @@ def main(argv=None) -> int:
     ap.add_argument("--set", choices=sorted(SETS), default="bench")
     ap.add_argument("--frames", type=int, default=4)
     ap.add_argument("--scenes", default=None, help="comma-separated scene file stems (default all)")
+    ap.add_argument("--support", type=int, default=None, help="the adaptive support's reach in windows")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
     folder, seed = SETS[args.set]
@@ -43,22 +45,25 @@ def main(argv=None) -> int:
     rows = {}
     for path in paths:
         sc = load_bench_scene(path)
-        res = run_ladder([sc], seed=seed, frames=args.frames, rungs=RUNGS, progress=False)
+        res = run_ladder([sc], seed=seed, frames=args.frames, rungs=RUNGS, progress=False,
+                         params=None if args.support is None else {"support": args.support})
         rows[sc.key] = {r["rung"]: r["psnr"] for r in res["rows"]}
         got = rows[sc.key]
         print(f"{sc.key:32s} " + " ".join(f"{r} {got[r]:.2f}" for r in RUNGS), file=sys.stderr, flush=True)
-    head = "| scene | D on W | ours | robust | adaptive | limit | robust − ours | adaptive − ours | adaptive − limit |"
-    lines = [head,
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    cols = ("net", "ours_binomial", "ours_robust", "ours", "no_align", "no_denoiser", "limit")
+    head = ("| scene | D on W | Eq. 14–15 merge | robust | ours (adaptive) | no alignment | no denoiser | limit "
+            "| robust − Eq. 14–15 | ours − Eq. 14–15 | ours − limit |")
+    lines = [head, "|---|" + "---:|" * 10]
+
+    def row(name, g):
+        return (f"| {name} | " + " | ".join(f"{g[c]:.2f}" for c in cols)
+                + f" | {g['ours_robust'] - g['ours_binomial']:+.2f} | {g['ours'] - g['ours_binomial']:+.2f} "
+                  f"| {g['ours'] - g['limit']:+.2f} |")
+
     for key, g in rows.items():
-        lines.append(f"| {key} | {g['net']:.2f} | {g['ours']:.2f} | {g['ours_robust']:.2f} | {g['ours_adaptive']:.2f} "
-                     f"| {g['limit']:.2f} | {g['ours_robust'] - g['ours']:+.2f} "
-                     f"| {g['ours_adaptive'] - g['ours']:+.2f} "
-                     f"| {g['ours_adaptive'] - g['limit']:+.2f} |")
+        lines.append(row(key, g))
     mean = {r: float(np.mean([g[r] for g in rows.values()])) for r in RUNGS}
-    lines.append(f"| **mean** | {mean['net']:.2f} | {mean['ours']:.2f} | {mean['ours_robust']:.2f} | "
-                 f"{mean['ours_adaptive']:.2f} | {mean['limit']:.2f} | {mean['ours_robust'] - mean['ours']:+.2f} | "
-                 f"{mean['ours_adaptive'] - mean['ours']:+.2f} | {mean['ours_adaptive'] - mean['limit']:+.2f} |")
+    lines.append(row("**mean**", mean))
     text = "\n".join(lines)
     print(text)
     if args.out:

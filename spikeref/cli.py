@@ -795,8 +795,8 @@ def cmd_reconstruct(args) -> int:
     if args.merge is not None:
         chosen["merge"] = args.merge
     if args.support is not None:
-        if (args.merge or "binomial") != "adaptive":
-            raise CliError("--support applies to --merge adaptive")
+        if args.merge in ("binomial", "robust"):
+            raise CliError("--support applies to --merge adaptive (the default on window charges)")
         _check_int(args.support, "--support", 1, "a positive number of windows")
         chosen["support"] = args.support
     hot_map = _hot_pixel_option(args.hot_pixels)
@@ -901,7 +901,9 @@ def _run_record(stream, params, args, guard, shrink, hot_mask=None, hot_map=None
                         "bytes": path.stat().st_size if path and path.is_file() else None,
                         "planes": len(stream), "height": stream.height, "width": stream.width, "cfa": stream.cfa},
               "params": {k: v for k, v in asdict(params).items()
-                         if k != "hot_pixels" and not (params.merge == "binomial" and k in ("merge", "support"))}}
+                         if k != "hot_pixels" and not (params.merge_used == "binomial" and k in ("merge", "support"))}}
+    if params.merge_used != "binomial":  # the merge that ran, not "auto"
+        record["params"]["merge"] = params.merge_used
     if hot_mask is not None and hot_mask.any():
         record["hot_pixels"] = {"replaced": int(hot_mask.sum()),
                                 "from": str(hot_map) if hot_map is not None else "the recording"}
@@ -1500,15 +1502,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--no-align", action="store_true", help="zero flow (plain accumulation over the support)")
-    p.add_argument("--merge", choices=["binomial", "robust", "adaptive"], default=None,
-                   help="how the aligned windows are merged (composed or chained warp): binomial (default; Eq. 14-15's "
-                        "weights), robust (each window weighed by how well it agrees with the reference beyond the "
-                        "noise: misaligned and occluded samples drop out), adaptive (robust, and windows beyond the "
-                        "support added where they keep agreeing, up to --support windows each side). Not in the "
-                        "paper; spikeref.merge; what each buys: docs/results.md, 'The robust merge'")
+    p.add_argument("--merge", choices=["adaptive", "robust", "binomial"], default=None,
+                   help="how the aligned windows are merged (composed or chained warp): adaptive (default with "
+                        "window charges: each window weighed by how well it agrees with the reference beyond the "
+                        "noise, so misaligned and occluded samples drop out, and windows beyond Eq. 14-15's support "
+                        "added where they keep agreeing, up to --support windows each side), robust (the same "
+                        "weights at Eq. 14-15's support), binomial (Eq. 14-15's weights; the default with "
+                        "--accumulate count, --preset fast and --paper). Not in the paper; spikeref.merge; what each "
+                        "buys and costs: docs/results.md, 'The robust merge'")
     p.add_argument("--support", type=int, default=None,
-                   help="with --merge adaptive: the farthest window a pixel may collect, in windows each side of the "
-                        "reference (default 20: 200 planes at W = 10)")
+                   help="with the adaptive merge: the farthest window a pixel may collect, in windows each side of "
+                        "the reference (default 10: 100 planes at W = 10)")
     _add_hot_pixel_option(p, "reconstruct")
     p.add_argument("--flow-frames", choices=["denoised", "smoothed"], default=None,
                    help="what each step's flow is estimated on: smoothed (default; a Gaussian of σ = 1 "

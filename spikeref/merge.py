@@ -61,12 +61,13 @@ The estimate is clipped to ``[0, 1]`` spikes per readout (the cubic may overshoo
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import uniform_filter
 
 from spikeref._checks import finite_number, whole_number
+from spikeref._merge_kernels import robust_merge_kernel, workspace_size
 
 __all__ = ["MergeParams", "robust_merge", "default_shells", "MERGES"]
 
@@ -136,35 +137,20 @@ def default_shells(core_reach: int, support: int) -> tuple:
     return tuple(shells)
 
 
-def _box_mean(a: np.ndarray, box: int) -> np.ndarray:
-    """Mean of ``a`` over the pixels of the ``box × box`` window that lie inside the image (last two axes)."""
-    size = (1,) * (a.ndim - 2) + (box, box)
-    return uniform_filter(a, size=size, mode="constant", cval=0.0) * (box * box) / _box_count(a.shape[-2:], box)
+_WORK = threading.local()
 
 
-def _box_count(shape: tuple, box: int) -> np.ndarray:
-    """How many pixels of the ``box × box`` window around each pixel lie inside an image of ``shape``."""
-    h, w = shape
-    ny = np.minimum(np.arange(h) + box // 2, h - 1) - np.maximum(np.arange(h) - box // 2, 0) + 1
-    nx = np.minimum(np.arange(w) + box // 2, w - 1) - np.maximum(np.arange(w) - box // 2, 0) + 1
-    return (ny[:, None] * nx[None, :]).astype(np.float64)
+def _workspace(size: int) -> np.ndarray:
+    """The kernel's buffers, kept per thread between calls: fresh memory of this size costs a page fault per page at
+    every call (a third of the merge's time at 250×400)."""
+    work = getattr(_WORK, "array", None)
+    if work is None or work.size < size:
+        work = _WORK.array = np.empty(size)
+    return work[:size]
 
 
-def _robustness(d: np.ndarray, u: np.ndarray, valid: np.ndarray, p: MergeParams) -> np.ndarray:
-    """``r_j(x)`` ``(n, h, w)`` of windows whose differences to the estimate are ``d`` ``(n, C, h, w)``, of variance
-    ``u`` (module doc)."""
-    nc = d.shape[1]
-    m = _box_count(d.shape[-2:], p.box)  # the pixels each box sums: fewer at the border
-    q = np.minimum(d * d / u, p.clip * p.clip)
-    big_q = _box_mean(q, p.box).sum(axis=1) * m
-    sd = np.sqrt(u)
-    mean_d = _box_mean(np.clip(d, -p.clip * sd, p.clip * sd), p.box)
-    big_p = (mean_d * mean_d / (u / m)).sum(axis=1)
-    z = np.maximum((big_q - nc * m) / np.sqrt(2.0 * nc * m), (big_p - nc) / np.sqrt(2.0 * nc))
-    return np.clip(2.0 - z / p.z, 0.0, 1.0) * (valid > 0)
-
-
-def robust_merge(samples, weights, noise, reference: int, core, params: MergeParams = MergeParams()) -> tuple:
+def robust_merge(samples, weights, noise, reference: int, core, params: MergeParams = MergeParams(),
+                 check: bool = True) -> tuple:
     """The robust merge of aligned windows, with the adaptive support when ``params.shells`` are given.
 
     Parameters
@@ -184,6 +170,9 @@ def robust_merge(samples, weights, noise, reference: int, core, params: MergePar
         The windows merged first (Eq. 14–15's support); the others are offered shell by shell, by their
         distance ``|j − reference|``.
     params : MergeParams
+    check : bool
+        Check the arguments (default).  ``False`` skips the checks of values (finite, non-negative), which read
+        every sample: for callers that made the arrays themselves (:class:`spikeref.pipeline.Reconstructor`).
 
     Returns
     -------
@@ -193,11 +182,18 @@ def robust_merge(samples, weights, noise, reference: int, core, params: MergePar
         The effective number of windows merged, ``(Σ ω)² / Σ ω²`` over the final weights ``ω`` (times ``W``: the
         pseudo-exposure in planes).  Eq. 14–15's binomial weights at 10/3/3 give 27² / 141 = 5.17.
     """
-    s = np.asarray(samples, dtype=np.float64)
+    if not check:
+        return _robust_merge(np.asarray(samples), np.asarray(weights), np.asarray(noise), int(reference),
+                             np.asarray(core, dtype=bool), params)
+    s = np.asarray(samples)
+    if not np.issubdtype(s.dtype, np.number) or np.issubdtype(s.dtype, np.complexfloating):
+        raise TypeError(f"samples must be real numbers; got {s.dtype}")
     if s.ndim != 4:
         raise ValueError(f"samples must have shape (n, C, h, w); got {s.shape}")
     n, nc, h, w = s.shape
-    base = np.asarray(weights, dtype=np.float64)
+    base = np.asarray(weights)
+    if not np.issubdtype(base.dtype, np.number) or np.issubdtype(base.dtype, np.complexfloating):
+        raise TypeError(f"weights must be real numbers; got {base.dtype}")
     if base.shape != (n, h, w) or not np.all(np.isfinite(base)) or base.min(initial=0.0) < 0:
         raise ValueError(f"weights must be finite, non-negative, of shape ({n}, {h}, {w}); got {base.shape}")
     v = np.asarray(noise, dtype=np.float64)
@@ -212,63 +208,26 @@ def robust_merge(samples, weights, noise, reference: int, core, params: MergePar
         raise TypeError(f"params must be a MergeParams; got {type(params).__name__}")
     if not np.all(np.isfinite(s)):
         raise ValueError("samples must be finite")
+    return _robust_merge(s, base, v, int(reference), core, params)
+
+
+def _robust_merge(s: np.ndarray, base: np.ndarray, v: np.ndarray, reference: int, core: np.ndarray,
+                  params: MergeParams) -> tuple:
+    """:func:`robust_merge` on arguments it has checked (or the pipeline made): ``s`` float32 or float64 (``base``
+    is taken in the same type, one compiled kernel per type)."""
+    n, nc, h, w = s.shape
     dist = np.abs(np.arange(n) - reference)
-    idx = np.flatnonzero(core)
-    ref = int(np.flatnonzero(idx == reference)[0])
-    cb = base[idx].copy()
-    cb[ref] = np.maximum(cb[ref], 1e-12)  # the reference always counts (it is where the frame is)
-    # the core: the reference first, then rounds of reweighting against the merge
-    est = s[reference]
-    share = np.zeros((idx.size, h, w))
-    share[ref] = 1.0
-    omega = share
-    for _ in range(params.iterations):
-        v_est = v * (share ** 2).sum(axis=0)  # u_j = v + v_e − 2 a_j v: the variance of s_j − e
-        u = np.maximum(v[None] + v_est[None] - 2.0 * share[:, None] * v[None], 1e-12)
-        r = _robustness(s[idx] - est[None], u, cb, params)
-        r[ref] = 1.0
-        omega = cb * r
-        share = omega / omega.sum(axis=0)
-        est = (share[:, None] * s[idx]).sum(axis=0)
-    weight_sum, weight_sq = omega.sum(axis=0), (omega * omega).sum(axis=0)
-    unit = cb.sum(axis=0) / np.maximum((cb > 0).sum(axis=0), 1)  # a shell window weighs a mean core window
-    # the noise the core windows show about their merge, per plane: E[(s_j − e)²] = v (1 − 2 a_j + Σ a²) where they
-    # agree, so this v̂ holds what the noise model misses (and the core's own misalignment): a shell is judged by
-    # how much worse than the core it agrees with the merge
-    c_core = np.maximum(1.0 - 2.0 * share + (share ** 2).sum(axis=0)[None], 1e-12)  # (n_core, h, w)
-    # each residual clipped at κ² times its own model variance, as a shell's below: the same truncation both sides
-    resid = (omega[:, None] * np.minimum((s[idx] - est[None]) ** 2, params.clip ** 2 * v[None] * c_core[:, None])
-             ).sum(axis=0)
-    dof = (omega * c_core).sum(axis=0)
-    v_hat = _box_mean(resid, params.box) / np.maximum(_box_mean(dof, params.box), 1e-12)[None]
-    # the shells, outward, each taken where it lowers the estimated mean squared error
-    alive = np.ones((h, w), bool)
-    vbar = v.mean(axis=0)  # the noise a longer average removes, as the model has it
-    for lo, hi in params.shells:
-        sh = np.flatnonzero(~core & (dist >= lo) & (dist <= hi))
-        if sh.size == 0:
-            continue
-        d = s[sh] - est[None]
-        v_est = v * weight_sq / np.maximum(weight_sum, 1e-12) ** 2  # a shell window is not part of e: u = v + v_e
-        u = np.maximum(v[None] + v_est[None], 1e-12)
-        rs = _robustness(d, u, base[sh], params)
-        passing = rs > 0
-        u_hat = v_hat[None] + (v_hat * weight_sq / np.maximum(weight_sum, 1e-12) ** 2)[None]
-        sq = np.minimum(d * d, params.clip * params.clip * u)  # a lone spurious spike counts at most κ² u
-        excess = _box_mean(((sq - u_hat) * passing[:, None]).sum(axis=0), params.box).mean(axis=0)
-        count = _box_mean(passing.astype(np.float64).sum(axis=0), params.box)
-        bias2 = np.maximum(excess / np.maximum(count, 1e-12), 0.0)
-        add = rs * unit[None]
-        new_sum = weight_sum + add.sum(axis=0)
-        new_sq = weight_sq + (add * add).sum(axis=0)
-        share_new = add.sum(axis=0) / np.maximum(new_sum, 1e-12)
-        gain = vbar * (weight_sq / np.maximum(weight_sum, 1e-12) ** 2 - new_sq / np.maximum(new_sum, 1e-12) ** 2)
-        take = alive & passing.any(axis=0) & (params.safety * bias2 * share_new ** 2 < gain)
-        alive &= take
-        add = add * take[None]
-        new_sum = weight_sum + add.sum(axis=0)
-        est = (est * weight_sum[None] + (add[:, None] * s[sh]).sum(axis=0)) / new_sum[None]
-        weight_sq = weight_sq + (add * add).sum(axis=0)
-        weight_sum = new_sum
-    windows = weight_sum * weight_sum / np.maximum(weight_sq, 1e-12)
+    idx = np.flatnonzero(core).astype(np.int64)
+    shells = [np.flatnonzero(~core & (dist >= lo) & (dist <= hi)) for lo, hi in params.shells]
+    shell_start = np.cumsum([0] + [sh.size for sh in shells]).astype(np.int64)
+    shell_idx = np.concatenate(shells + [np.zeros(0, np.int64)]).astype(np.int64)
+    if s.dtype not in (np.float32, np.float64):
+        s = s.astype(np.float64)
+    work = _workspace(workspace_size(idx.size, max((sh.size for sh in shells), default=0), nc, h, w))
+    est, windows = np.empty((nc, h, w)), np.empty((h, w))
+    robust_merge_kernel(np.ascontiguousarray(s), np.ascontiguousarray(base, dtype=s.dtype),
+                        np.ascontiguousarray(v, dtype=np.float64), reference, idx,
+                        int(np.flatnonzero(idx == reference)[0]), shell_start, shell_idx, int(params.box),
+                        float(params.z), float(params.clip), int(params.iterations), float(params.safety), work, est,
+                        windows)
     return np.clip(est, 0.0, 1.0).astype(np.float32), windows.astype(np.float32)

@@ -57,16 +57,21 @@ def _assert_identical(folder, reference):
 
 
 def test_plan_covers_the_frames_with_the_support_overlap():
-    p = ReconstructParams(window=10, K=3, L=3, accumulate="count")
+    p = ReconstructParams(window=10, K=3, L=3, accumulate="count", merge="binomial")
     chunks = plan_chunks(range(3, 14), p, 4)
     assert [(c.start, c.stop) for c in chunks] == [(3, 7), (7, 11), (11, 14)]
     assert chunks[0] == Chunk(0, 3, 7, 0, 100)  # windows 3−3 … 6+3
     overlap = chunks[0].stop_plane - chunks[1].first_plane
     assert overlap == ((p.K - 1) * p.L + 1) * p.window - p.window
     # window charges (the default) read DEFAULT_MARGIN = 200 readouts more on either side, in whole windows
-    charge = plan_chunks(range(3, 40), ReconstructParams(window=30, K=3, L=3), 4)
+    charge = plan_chunks(range(3, 40), ReconstructParams(window=30, K=3, L=3, merge="binomial"), 4)
     assert charge[0] == Chunk(0, 3, 7, 0, (7 + 3) * 30 + 210)  # 200 readouts → 7 windows of 30; clipped at 0
     assert charge[5] == Chunk(5, 23, 27, (23 - 3) * 30 - 210, (27 + 3) * 30 + 210)
+    # the adaptive merge (the default on charges) reads `support` windows each side where the recording has them
+    adaptive = plan_chunks(range(3, 40), ReconstructParams(window=10, K=3, L=3, accumulate="count", merge="adaptive",
+                                                           support=12), 4)
+    assert adaptive[1] == Chunk(1, 7, 11, 0, (11 + 12) * 10)  # windows 7 − 12 … 10 + 12, clipped at 0
+    assert adaptive[5] == Chunk(5, 23, 27, (23 - 12) * 10, (27 + 12) * 10)
     with pytest.raises(ValueError, match="chunk_frames must be a positive integer"):
         plan_chunks(range(3, 14), p, 0)
 
@@ -182,8 +187,9 @@ def test_without_a_denoiser_no_weights_are_read(recording, client, tmp_path):
 def test_worker_error_names_the_chunk(recording, client, tmp_path):
     path, _ = recording
     (tmp_path / exr_name(7)).mkdir()  # frame 7 cannot be written: a folder sits at its name
-    # planes (6 − 3)·10 − 200 … (9 + 3)·10 + 200: the support and the window charge's margin, clipped at 0
-    with pytest.raises(ChunkError, match=r"chunk 1 \(frames 6:9, planes 0:320\) failed on a worker"):
+    # planes (6 − 10)·10 − 200 … (9 + 10)·10 + 200: the adaptive merge's support of 10 windows and the window
+    # charge's margin, clipped at 0
+    with pytest.raises(ChunkError, match=r"chunk 1 \(frames 6:9, planes 0:390\) failed on a worker"):
         reconstruct_distributed(path, tmp_path, client=client, chunk_frames=3, progress=False)
 
 
@@ -271,7 +277,7 @@ def test_chunks_replace_the_hot_pixels_of_the_whole_recording(tmp_path):
     path = tmp_path / "hot.dat"
     write_dat(path, spikes)
     open_kwargs = {"height": h, "width": w, "cfa": "RGGB"}
-    p = ReconstructParams(window=10, K=3, L=1, denoise=False)
+    p = ReconstructParams(window=10, K=3, L=1, denoise=False, merge="binomial")  # chunks 3 windows apart
     whole = Reconstructor(read_dat(path, h, w, "RGGB"), p)
     np.testing.assert_array_equal(whole.hot_pixel_mask, hot)
     frames = frame_range(planes, 10, 3, 1)

@@ -48,6 +48,7 @@ LAYERS = {
     "spikeref._warp_kernels": 3,
     "spikeref.compose": 3,
     "spikeref.merge": 3,
+    "spikeref._merge_kernels": 3,
     "spikeref.demosaic": 3,
     "spikeref.simulate": 3,
     "spikeref.noise_check": 3,

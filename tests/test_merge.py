@@ -111,3 +111,28 @@ def test_bad_arguments_are_named():
     bad[0, 0, 0, 0] = np.nan
     with pytest.raises(ValueError, match="samples must be finite"):
         robust_merge(bad, w, v, 1, core)
+
+
+def test_the_compiled_merge_runs_no_python_code_per_call(monkeypatch):
+    """A parallel kernel that makes or returns an array unpickles objects (Python code) at every call; a Ctrl-C
+    pending from the compiled part then surfaces there as a SystemError, not a KeyboardInterrupt (seen in
+    tests/test_faults.py's signal test).  The merge's kernel takes every buffer from its caller."""
+    numba_serialize = pytest.importorskip("numba.core.serialize")
+    samples = _windows(9, 0.02, 3, h=12, w=14)
+    args = (samples, np.ones((9, 12, 14)), np.full((4, 12, 14), 0.02 ** 2), 4,
+            np.abs(np.arange(9) - 4) <= 1, MergeParams(shells=((2, 4),)))
+    robust_merge(*args)  # compiled (or loaded from the cache) here
+    calls = []
+    real = numba_serialize._numba_unpickle
+    monkeypatch.setattr(numba_serialize, "_numba_unpickle", lambda *a: calls.append(a) or real(*a))
+    robust_merge(*args)
+    assert calls == []
+
+
+def test_unchecked_call_gives_the_same_merge():
+    """``check=False`` (the pipeline's call) skips the value checks, not the merge."""
+    samples = _windows(9, 0.02, 4, h=12, w=14)
+    args = (samples, np.ones((9, 12, 14), np.float32), np.full((4, 12, 14), 0.02 ** 2), 4,
+            np.abs(np.arange(9) - 4) <= 1, MergeParams(shells=((2, 4),)))
+    for got, want in zip(robust_merge(*args, check=False), robust_merge(*args), strict=True):
+        np.testing.assert_array_equal(got, want)

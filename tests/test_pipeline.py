@@ -183,8 +183,32 @@ def test_reads_only_the_support_and_rings_stay_bounded(sample, monkeypatch, warp
     assert sorted(seen) == list(range(10 - 3, 14 + 3))  # each window read once, only the support of 10:14
 
 
+def test_the_adaptive_support_reads_each_window_once_and_stays_bounded(sample, monkeypatch):
+    """The adaptive merge reads windows ``k − support … k + support`` once each; what it keeps does not grow."""
+    seen = []
+    real = acc_mod.window_counts
+
+    def spy(stream, window, start=0, count=None, out=None):
+        seen.append(start // window)
+        return real(stream, window, start, count, out)
+
+    monkeypatch.setattr(pipeline_mod, "window_counts", spy)
+    params = ReconstructParams(window=10, K=3, L=3, accumulate="count", merge="adaptive", support=5)
+    from spikeref.pipeline import _State
+
+    state = _State(Reconstructor(sample, params, denoiser=identity))
+    sizes = set()
+    for k in range(10, 14):
+        state.output(k, False)
+        state.evict(k + 1)
+        sizes.add((tuple(len(ring) for ring in state.rings), len(state.step0), len(state.counts)))
+        assert len(state.counts) <= 2 * params.support and len(state.step0) <= 2 * params.support
+    assert len(sizes) == 1  # the same after every frame
+    assert sorted(seen) == list(range(10 - 5, 14 + 5))
+
+
 def test_keep_steps_gives_every_step_and_flow(sample):
-    rec = Reconstructor(sample, ReconstructParams(window=10, K=3, L=3), denoiser=identity)
+    rec = Reconstructor(sample, ReconstructParams(window=10, K=3, L=3, merge="binomial"), denoiser=identity)
     (f,) = list(rec.frames(12, 13, keep_steps=True))
     assert len(f.steps) == 4 and all(s.shape == (224, 256, 3) for s in f.steps)
     np.testing.assert_array_equal(f.steps[-1], f.rgb)
@@ -515,10 +539,10 @@ def test_presets():
     assert ReconstructParams.preset("default") == ReconstructParams()
     assert ReconstructParams.preset("paper") == ReconstructParams.paper()
     fast = ReconstructParams.fast()
-    assert fast == ReconstructParams(warp="chained") == ReconstructParams.preset("fast")
-    assert ReconstructParams.preset("fast", L=2, warp="composed") == ReconstructParams(L=2)
-    assert ReconstructParams.preset("fastest") == ReconstructParams.fastest() == ReconstructParams(warp="chained",
-                                                                                                  denoise=False)
+    assert fast == ReconstructParams(warp="chained", merge="binomial") == ReconstructParams.preset("fast")
+    assert ReconstructParams.preset("fast", L=2, warp="composed", merge="auto") == ReconstructParams(L=2)
+    assert ReconstructParams.preset("fastest") == ReconstructParams.fastest() == \
+        ReconstructParams(warp="chained", denoise=False, merge="binomial")
     with pytest.raises(ValueError, match="preset must be one of default, fast, fastest, paper; got 'turbo'"):
         ReconstructParams.preset("turbo")
     with pytest.raises(TypeError, match="denoise must be True or False; got 'no'"):
@@ -529,16 +553,19 @@ def test_presets():
 
 
 def test_resample_reaches_the_composed_warp(sample):
-    """``resample`` changes only the composed/chained output frame: "path" is the composed warp of before (the
-    golden cases pin both), and the progressive warp ignores it."""
+    """``resample`` changes only the binomial merge's composed/chained output frame: "path" is the composed warp of
+    before (the golden cases pin both); the progressive warp and the robust merges (one sample per window)
+    ignore it."""
     frames = {}
-    for params in (ReconstructParams(), ReconstructParams(resample="path"), ReconstructParams.paper(),
-                   ReconstructParams.paper(resample="path")):
+    for params in (ReconstructParams(merge="binomial"), ReconstructParams(merge="binomial", resample="path"),
+                   ReconstructParams.paper(), ReconstructParams.paper(resample="path"), ReconstructParams(),
+                   ReconstructParams(resample="path")):
         rec = Reconstructor(sample, replace(params, denoise=False))
         frames[params] = next(iter(rec.frames(5, 6))).rgb
-    window, path, paper, paper_path = frames.values()
+    window, path, paper, paper_path, adaptive, adaptive_path = frames.values()
     assert not np.array_equal(window, path) and np.abs(window - path).mean() < 0.005  # the fan: flows spread
     np.testing.assert_array_equal(paper, paper_path)
+    np.testing.assert_array_equal(adaptive, adaptive_path)
 
 
 def test_without_a_denoiser_the_network_never_runs(sample):
@@ -666,8 +693,13 @@ def test_the_merges_run_and_the_adaptive_support_grows_on_a_static_scene():
 
 
 def test_merge_parameters_are_checked():
-    with pytest.raises(ValueError, match="merge must be one of binomial, robust, adaptive"):
+    with pytest.raises(ValueError, match="merge must be auto or one of binomial, robust, adaptive"):
         ReconstructParams(merge="median")
+    # "auto": the adaptive merge on window charges with the composed or chained warp, else Eq. 14–15's
+    assert ReconstructParams().merge_used == "adaptive" == ReconstructParams(warp="chained").merge_used
+    assert ReconstructParams(accumulate="count").merge_used == "binomial" == ReconstructParams.paper().merge_used
+    assert ReconstructParams(warp="progressive").merge_used == "binomial" == ReconstructParams.fast().merge_used
+    assert ReconstructParams(accumulate="count", merge="robust").merge_used == "robust"
     with pytest.raises(ValueError, match="needs the composed or chained warp"):
         ReconstructParams(merge="robust", warp="progressive")
     with pytest.raises(ValueError, match=r"support must be a whole number of windows ≥ L·\(K−1\)/2 = 3"):

@@ -64,7 +64,7 @@ __all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "PEER_RUNGS", "TRUE_FLOW_RUNG
 #: The rungs, bottom to top.
 RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
          "true_flow_d", "true_flow_bm3d", "true_flow_clean", "limit", "ours_mhc", "limit_mhc", "ours_count",
-         "ours_robust", "ours_adaptive")
+         "ours_binomial", "ours_robust", "ours_adaptive")
 RUNG_LABELS = {
     "tfp": "TFP(W)", "bm3d": "BM3D on W", "nlm": "NLM on W", "net": "D on W", "tfp_support": "TFP(support)",
     "no_align": "no alignment", "no_denoiser": "no denoiser", "paper": "paper's Fig. 3(b)", "ours": "ours",
@@ -72,10 +72,11 @@ RUNG_LABELS = {
     "true_flow_d": "true flow + D", "true_flow_bm3d": "true flow + BM3D",
     "true_flow_clean": "true flow (noise-free)", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
     "limit_mhc": "limit, MHC demosaic", "ours_count": "ours, Eq. 4 count",
-    "ours_robust": "ours, robust merge", "ours_adaptive": "ours, adaptive support",
+    "ours_binomial": "ours, Eq. 14–15 merge", "ours_robust": "ours, robust merge",
+    "ours_adaptive": "ours, adaptive support",
 }
 #: Columns that are options beside the ladder (another demosaic, Eq. 4's counts), not rungs of it.
-OPTION_RUNGS = ("ours_mhc", "limit_mhc", "ours_count", "ours_robust", "ours_adaptive")
+OPTION_RUNGS = ("ours_mhc", "limit_mhc", "ours_count", "ours_binomial", "ours_robust", "ours_adaptive")
 #: The rungs that need a classical peer (its package), by peer.
 PEER_RUNGS = {"bm3d": ("bm3d", "true_flow_bm3d"), "nlm": ("nlm",)}
 #: The rungs made by warping with the scene's exact motion.
@@ -320,7 +321,7 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
         out["ours_mhc"] = run(replace(base, demosaic="mhc"), denoiser, False)[0]
     if "ours_count" in rungs:
         out["ours_count"] = run(replace(base, accumulate="count"), denoisers["count"], False)[0]
-    for merge in ("robust", "adaptive"):  # spikeref.merge: the robust merge at Eq. 14–15's support, or grown
+    for merge in ("binomial", "robust", "adaptive"):  # Eq. 14–15's weights; spikeref.merge's at their support, grown
         if f"ours_{merge}" in rungs:
             out[f"ours_{merge}"] = run(replace(base, merge=merge), denoiser, False)[0]
     if "no_align" in rungs:

@@ -135,7 +135,7 @@ def _pipeline(case, i):
     shrink = variant.pop("shrink", True)
     params = ReconstructParams(window=c["window"], K=c["K"], L=c["L"], align_params=_align_params(c["align"]),
                                **{"flow_frames": "denoised", "warp": "progressive", "accumulate": "count",
-                                  "resample": "path", **variant})
+                                  "resample": "path", "merge": "binomial", **variant})
     net = UNet.from_params(unet_params_from_inputs(i), meta={"input_domain": "count"})
     rec = Reconstructor(SpikeStream.from_array(i["spikes"], cfa=c["cfa"]), params,
                         Denoiser(net, guard=guard, shrink=shrink))
