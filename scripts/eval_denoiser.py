@@ -16,7 +16,7 @@ flattered by the rate scale's 1.0), from :mod:`spikeref.metrics`; its SSIM (Gaus
 σ = 1.5, mean of the RGB channels) equals scikit-image's ``structural_similarity`` with those
 settings to 1e-9 (``tests/test_metrics.py``).
 
-    python scripts/eval_denoiser.py --weights spikeref/denoise/weights/b2u_w32.npz --json out/eval.json
+    python scripts/eval_denoiser.py --weights out/my_weights.npz --json out/eval.json
 """
 
 from __future__ import annotations

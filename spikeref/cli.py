@@ -1445,9 +1445,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --guard off, do not give back the residual above the exposure's binomial noise "
                         "(spikeref.denoise.shrinkage); --guard off --no-shrink is the paper's D(I) exactly")
     p.add_argument("--weights", type=Path, default=None,
-                   help="weights .npz, or a bundled name: b2u_w16 (the default with counts) or b2u_w32 (trained "
-                        "on rates; slower), pairs_w16_charge (the default with --accumulate charge) or "
-                        "b2u_w16_charge (charges, the paper's loss)")
+                   help="weights .npz, or a bundled name: b2u_w16 (the default with counts: Eq. 4's counts, the "
+                        "paper's Blind2Unblind loss) or pairs_w16_charge (the default with --accumulate charge: "
+                        "trained on window charges by Noise2Noise pairs); each network is trained on what its path "
+                        "gives it")
     p.add_argument("--start", type=int, default=0, help="first plane")
     p.add_argument("--frames", default=None,
                    help="frame numbers a:b (b excluded; frame k is planes start + kW … start + (k+1)W − 1), or N for "
@@ -1536,9 +1537,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "at the edges falls by about the firing rate; not in the paper; spikeref.charge, "
                         "docs/results.md) or count (Eq. 4, its spikes; the paper's, and --paper's)")
     p.add_argument("--weights", type=Path, default=None,
-                   help="denoiser weights .npz, or a bundled name: pairs_w16_charge (the default with charges), "
-                        "b2u_w16_charge (charges, the paper's loss), b2u_w16 (the default with counts) or b2u_w32 "
-                        "(trained on rates; slower)")
+                   help="denoiser weights .npz, or a bundled name: pairs_w16_charge (the default with charges: "
+                        "trained on window charges by Noise2Noise pairs) or b2u_w16 (the default with counts and "
+                        "--paper: Eq. 4's counts, the paper's Blind2Unblind loss); each network is trained on what "
+                        "its path gives it")
     p.add_argument("--frames", default=None, help="frame numbers a:b to reconstruct (b excluded; default all), "
                    "or N for the first N; "
                    "chunks give exactly the frames of a full run")

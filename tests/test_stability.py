@@ -183,7 +183,7 @@ def test_warping_with_zero_flow_conserves_spikes_and_far_flow_stays_finite(rng):
 def denoisers():
     from spikeref.denoise.denoiser import Denoiser
 
-    return {name: Denoiser.load(name) for name in ("b2u_w16", "b2u_w32")}
+    return {name: Denoiser.load(name) for name in ("b2u_w16", "pairs_w16_charge")}
 
 
 @pytest.mark.parametrize("mode", ["visible", "blind", "mixed"])

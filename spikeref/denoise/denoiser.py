@@ -130,13 +130,14 @@ class Denoiser:
     def load(cls, path=None, **kw) -> "Denoiser":
         """From a weights ``.npz`` or the name of a bundled file (default: :data:`DEFAULT_WEIGHTS`).
 
-        Bundled (``spikeref/denoise/weights/``, see ``docs/results.md``): ``b2u_w16`` (width 16,
-        trained on counts; the default here and for ``accumulate="count"``), ``pairs_w16_charge`` (width
-        16, trained on the timing-aware window charge of :mod:`spikeref.charge` by Noise2Noise pairs
-        of static streams, not the paper's loss: for ``accumulate="charge"``, the pipeline's default;
-        :func:`bundled_weights`), ``b2u_w16_charge`` (the same input, Blind2Unblind's loss; the default
-        for charges until 2026-11-24) and ``b2u_w32``
-        (width 32, trained on rates; about four times the time per frame with the direct convolution).
+        Bundled (``spikeref/denoise/weights/``, see ``docs/results.md``), two networks for the two inputs a
+        window can give: ``b2u_w16`` (width 16, the paper's Blind2Unblind loss on Eq. 4's counts; the default here,
+        for ``accumulate="count"`` and for the paper's procedure) and ``pairs_w16_charge`` (width 16, trained on
+        the timing-aware window charge of :mod:`spikeref.charge` by Noise2Noise pairs of static streams, not the
+        paper's loss: for ``accumulate="charge"``, the pipeline's default; :func:`bundled_weights`).  Each network
+        is trained on what its path feeds it: the charge network on counts, or the count network on charges, is
+        out of its training distribution.  ``b2u_w16_charge`` and ``b2u_w32`` shipped until 2026-11-28; the
+        commands in their metadata (``docs/results.md``) remake them.
         """
         if path is None:
             path = DEFAULT_WEIGHTS
