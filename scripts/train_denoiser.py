@@ -38,6 +38,15 @@ A run may span several sittings: run the same command again and it resumes from 
 
     python scripts/train_denoiser.py --recipe cpu --channels 16 --steps 6000 --out out/weights
     python scripts/train_denoiser.py --probe 20      # seconds per step of both recipes, interleaved
+
+On a GPU (``--device cuda``; the bundled weights are all CPU runs, and stay reproducible without one), a
+large-budget run in one command, stopped after ``--minutes`` of training wall time and written then:
+
+    python scripts/train_denoiser.py --device cuda --minutes 10 --objective pairs --accumulate charge \
+        --recipe paper --channels 32 --steps 20000 --out out/gpu
+
+``--minutes`` checks the clock every 100 steps (the learning-rate schedule is that of ``--steps``); run the same
+command again to go on from the checkpoint.
 """
 
 from __future__ import annotations
@@ -154,9 +163,22 @@ def main() -> None:
                     help="b2u: the paper's Blind2Unblind loss (Eq. 10-12) on the moving scenes and real recordings; "
                          "pairs: Noise2Noise on the static twins of the simulated scenes (train_static_*.toml), "
                          "one window against the count of the planes it did not read (not in the paper)")
+    ap.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
+                    help="where to train (default cpu: every bundled network is a CPU run)")
+    ap.add_argument("--minutes", type=float, default=None,
+                    help="stop after this many minutes of training wall time (checked every 100 steps) and write "
+                         "the weights; the schedule stays that of --steps")
     ap.add_argument("--probe", type=int, default=0, metavar="N",
                     help="only measure the median seconds per step of both recipes over N interleaved steps")
     args = ap.parse_args()
+    if args.minutes is not None and not args.minutes > 0:
+        ap.error(f"--minutes must be a positive number of minutes; got {args.minutes}")
+    if args.device == "cuda":
+        import torch
+
+        if not torch.cuda.is_available():
+            ap.error("--device cuda: PyTorch sees no CUDA device here (torch.cuda.is_available() is False); "
+                     "train on the CPU (--device cpu) or on a machine with a GPU")
     from spikeref.denoise.train import train
 
     side = 2 * max(r["patch"] for r in RECIPES.values()) if args.probe else 2 * RECIPES[args.recipe]["patch"]
@@ -177,11 +199,16 @@ def main() -> None:
     command = "python scripts/train_denoiser.py " + " ".join(sys.argv[1:])
     describe = {"command": command, "recipe": args.recipe, "data": described}
     last = args.steps if args.stop_after is None else min(args.steps, args.stop_after)
-    marks = sorted({round(args.steps * k / max(1, args.snapshots)) for k in range(1, args.snapshots + 1)})
+    snap_marks = {round(args.steps * k / max(1, args.snapshots)) for k in range(1, args.snapshots + 1)}
+    marks = sorted(snap_marks | (set(range(100, last, 100)) if args.minutes is not None else set()))  # the clock
     t0 = time.time()
     for mark in [m for m in marks if m < last] + [last]:
-        summary = train(streams, output, cfg, resume=True, describe=describe, stop_after=mark, device="cpu")
-        if mark != args.steps or args.snapshots:
+        summary = train(streams, output, cfg, resume=True, describe=describe, stop_after=mark, device=args.device)
+        if args.minutes is not None and time.time() - t0 >= 60 * args.minutes and mark != last:
+            print(f"step {summary['steps']}: {args.minutes:g} minutes spent; stopping (run again to go on)",
+                  flush=True)
+            break
+        if mark in snap_marks or (mark == last and mark != args.steps):
             snap = args.out / f"snap_{output.stem}_{mark:06d}.npz"
             snap.write_bytes(output.read_bytes())
         print(f"step {summary['steps']}: loss {summary['final_loss']:.4g}, {summary['seconds']:.0f} s of training",

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from spikeref.bayer import bayer_planes, cfa_channel_map
-from spikeref.bench.ladder import (PEER_RUNGS, RUNGS, binomial_weights, ladder_markdown, plot_ladder, run_ladder,
-                                   true_flow_frame)
+from spikeref.bench.ladder import (PEER_RUNGS, RUNGS, band_psnr, binomial_weights, ladder_markdown,
+                                   motion_edge_band, plot_ladder, run_ladder, true_flow_frame)
 from spikeref.bench.runner import BenchScene
 from spikeref.cli import main
 from spikeref.simulate.scenes import Scene, TranslatingTexture
@@ -37,6 +37,36 @@ def test_true_flow_frame_undoes_a_whole_pixel_motion():
     np.testing.assert_allclose(out, ref, atol=2e-5)
     # a wrong flow sign would not: warping with the plain sum of windows differs
     assert np.abs(counts.mean(0) / 10.0 - ref).max() > 0.05
+
+
+def test_the_motion_edge_band_is_where_motion_changes():
+    """A texture sliding as a whole has no motion edge inside the view (only where it enters and leaves it); the
+    fan's band follows its blades' edges, and none of the still toys far from them."""
+    from pathlib import Path
+
+    from spikeref.simulate.scenes import load_scene
+
+    still = TranslatingTexture(height=32, width=40, velocity=(0.0, 0.0), texture_size=16, brightness=0.6)
+    assert not motion_edge_band(still, 55.0, 10).any()
+    moving = TranslatingTexture(height=32, width=40, velocity=(0.0, 4000.0), texture_size=16, brightness=0.6)
+    band = motion_edge_band(moving, 55.0, 10, radius=0)
+    assert band.shape == (32, 40) and band.any() and not band[8:-8, 8:-8].any()  # the rows that leave and enter
+    fan = load_scene(Path(__file__).resolve().parents[1] / "spikeref" / "bench" / "scenes" / "3_fan.toml").content
+    band = motion_edge_band(fan, 105.0, 10)
+    h, w = band.shape
+    yy, xx = np.mgrid[0:h, 0:w]
+    far = np.hypot(yy - h / 2, xx - w / 2) > 0.75 * min(h, w)  # beyond the blades' reach (tip radius 0.4·min)
+    assert 0.02 < band.mean() < 0.6 and not band[far].any()
+
+
+def test_band_psnr_counts_only_the_band():
+    ref = np.full((4, 6, 3), 0.5)
+    img = ref.copy()
+    img[:2] += 0.05  # error only in the first two rows
+    band = np.zeros((4, 6), bool)
+    band[:2] = True
+    assert band_psnr(ref, img, band) == pytest.approx(10 * np.log10(0.25 / 0.0025))
+    assert band_psnr(ref, img, ~band) == np.inf and np.isnan(band_psnr(ref, img, np.zeros((4, 6), bool)))
 
 
 @pytest.fixture(scope="module")

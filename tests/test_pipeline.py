@@ -446,7 +446,9 @@ def test_real_near_static_recording_defaults_against_plain_accumulation():
     exposures over 10 planes without a short window, 2026-11-27); the defaults (window charges, the charge
     network, the one hot pixel found in the 120 planes replaced) 47.80 (47.82 since), without the denoiser
     47.85, with the hot pixel kept 47.38 — on a near-static scene the zero-motion test keeps every flow at
-    zero, and the 70-plane support is already clean: the denoiser may cost up to 0.3 dB here.
+    zero, and the 70-plane support is already clean: the denoiser may cost up to 0.3 dB here.  Since the adaptive
+    merge became the default on charges (2026-11-28): the defaults 48.10 (47.87 with Eq. 14–15's merge), without
+    the denoiser 48.10; on counts the default stays Eq. 14–15's merge (the adaptive one: 34.48).
     """
     from spikeref.denoise.denoiser import Denoiser
     from spikeref.hot_pixels import HotPixelRepair, find_hot_pixels
@@ -473,6 +475,7 @@ def test_real_near_static_recording_defaults_against_plain_accumulation():
     ours_count = score(ReconstructParams(accumulate="count"), Denoiser.load())
     paper = score(ReconstructParams.paper(), Denoiser.load(guard="off", shrink=False))
     assert ours >= plain - 0.6 and ours >= ours_no_d - 0.3 and ours_no_d >= plain - 0.5  # issue 32: within 0.5
+    assert ours >= 47.9  # the adaptive merge's gain over Eq. 14–15's (47.87) on a still scene is kept
     assert ours_count >= plain_count - 0.6
     assert ours > ours_count + 5.0 and plain > plain_count + 5.0  # the charge's gain on real spikes
     assert ours > paper + 5.0

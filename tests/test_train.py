@@ -381,3 +381,21 @@ def test_crops_of_a_dat_stored_top_down_are_upright(tmp_path, file_width, col_of
     wrong = read_dat(tmp_path / "td.dat", 72, 84, file_width=file_width, col_offset=col_offset)  # bottom-up
     counts = tr.CropSampler([wrong], 16, 5, 10)._counts(wrong, 0, 5, 0, 0).numpy()
     np.testing.assert_array_equal(counts, arr[0:5, ::-1][:, 0:32, 0:32].sum(0))
+
+
+def test_the_training_script_refuses_a_missing_gpu_in_one_line(tmp_path):
+    """``scripts/train_denoiser.py --device cuda`` (issue: a GPU run when one is lent) on a machine without CUDA:
+    an argparse error naming the device, before any data is simulated."""
+    import subprocess
+    from pathlib import Path
+
+    if torch.cuda.is_available():
+        pytest.skip("a CUDA device is here: the refusal is for machines without one")
+    script = Path(__file__).resolve().parents[1] / "scripts" / "train_denoiser.py"
+    run = subprocess.run([sys.executable, str(script), "--device", "cuda", "--steps", "1", "--data-dir",
+                          str(tmp_path / "data"), "--out", str(tmp_path / "out")], capture_output=True, text=True)
+    assert run.returncode == 2 and "--device cuda: PyTorch sees no CUDA device" in run.stderr
+    assert not (tmp_path / "data").exists()
+    run = subprocess.run([sys.executable, str(script), "--minutes", "0", "--steps", "1", "--data-dir",
+                          str(tmp_path / "data"), "--out", str(tmp_path / "out")], capture_output=True, text=True)
+    assert run.returncode == 2 and "--minutes must be a positive number" in run.stderr

@@ -57,9 +57,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "PEER_RUNGS", "TRUE_FLOW_RUNGS", "LadderSetting", "binomial_weights",
-           "has_true_flow", "clean_window_counts", "true_flow_frame", "psi", "psnr_score", "run_ladder",
-           "ladder_markdown", "plot_ladder"]
+__all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "PEER_RUNGS", "TRUE_FLOW_RUNGS", "GHOST_RUNGS", "LadderSetting",
+           "binomial_weights", "has_true_flow", "clean_window_counts", "motion_edge_band", "band_psnr",
+           "true_flow_frame", "psi", "psnr_score", "run_ladder", "ladder_markdown", "plot_ladder"]
 
 #: The rungs, bottom to top.
 RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
@@ -77,12 +77,16 @@ RUNG_LABELS = {
 }
 #: Columns that are options beside the ladder (another demosaic, Eq. 4's counts), not rungs of it.
 OPTION_RUNGS = ("ours_mhc", "limit_mhc", "ours_count", "ours_binomial", "ours_robust", "ours_adaptive")
+#: The rungs whose PSNR in the motion-edge band the Markdown shows beside the interior's (ghosts).
+GHOST_RUNGS = ("no_align", "ours_binomial", "ours_robust", "ours", "true_flow")
 #: The rungs that need a classical peer (its package), by peer.
 PEER_RUNGS = {"bm3d": ("bm3d", "true_flow_bm3d"), "nlm": ("nlm",)}
 #: The rungs made by warping with the scene's exact motion.
 TRUE_FLOW_RUNGS = ("true_flow", "true_flow_d", "true_flow_bm3d", "true_flow_clean")
 #: Border left out of the end-point error, full-resolution pixels.
 EPE_BORDER = 8
+#: Plane pixels the motion-edge band reaches beyond the edge (:func:`motion_edge_band`).
+EDGE_BAND_RADIUS = 2
 
 
 @dataclass(frozen=True)
@@ -195,6 +199,45 @@ def _score(reference: np.ndarray, image: np.ndarray) -> dict:
 
     return {"psnr": psnr_score(reference, image),
             "ssim": ssim(reference, np.asarray(image, dtype=np.float64), float(reference.max()))}
+
+
+def motion_edge_band(content, t_ref: float, window: int, radius: int = EDGE_BAND_RADIUS) -> np.ndarray | None:
+    """Where the scene's motion has an edge at ``t_ref``: ``(H, W)`` bool at image resolution, or None without a
+    motion model.
+
+    A Bayer-plane pixel is on a motion edge when, between ``t_ref`` and the windows one before and one after it
+    (``t_ref ± window``), its content is hidden or leaves the view (an occlusion, a blade's leading or trailing
+    edge), or the exact flow over its 3 × 3 neighbourhood spans more than half a plane pixel (a discontinuity of
+    the motion); the band is those pixels dilated by ``radius`` plane pixels (a square), each covering its 2 × 2
+    image pixels.  What a merge averages across such an edge — a ghost — lands in the band; the rest of the frame
+    is the interior.
+    """
+    from scipy.ndimage import binary_dilation, maximum_filter, minimum_filter
+
+    from spikeref.simulate.motion import plane_flow
+
+    edge = None
+    for t_other in (t_ref - window, t_ref + window):
+        flow, visible = plane_flow(content, t_ref, t_other)
+        if flow is None:
+            return None
+        spread = np.max([maximum_filter(f, size=3, mode="nearest") - minimum_filter(f, size=3, mode="nearest")
+                         for f in flow], axis=0)
+        here = ~visible | (spread > 0.5)
+        edge = here if edge is None else edge | here
+    band = binary_dilation(edge, structure=np.ones((2 * radius + 1,) * 2, bool)) if radius else edge
+    return np.repeat(np.repeat(band, 2, axis=0), 2, axis=1)
+
+
+def band_psnr(reference: np.ndarray, image: np.ndarray, band: np.ndarray) -> float:
+    """The ladder's PSNR over the pixels of ``band`` ``(H, W)`` only (all three colours; the reference's peak over
+    the whole frame as the data range); NaN for an empty band."""
+    if not band.any():
+        return float("nan")
+    err = (np.asarray(image, dtype=np.float64) - reference)[band]
+    mse = float(np.mean(err * err))
+    peak = float(reference.max())
+    return float("inf") if mse == 0 else float(10 * np.log10(peak * peak / mse))
 
 
 def _epe(est: np.ndarray, true: np.ndarray, visible: np.ndarray) -> float:
@@ -405,13 +448,20 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
                 bar.set_postfix_str(f"{sc.key}: {setting.name}")
                 out, secs, epe = _frames_for_scene(sc, setting, centres, refs, denoisers, peer_fns, rungs,
                                                    dict(params or {}))
+                bands = [motion_edge_band(sc.scene.content, t, setting.window) for t in centres]
+                bands = None if any(b is None for b in bands) else bands
                 for r in rungs:
                     imgs = out[r]
                     if not imgs or any(i is None for i in imgs):
-                        scores = {"psnr": float("nan"), "ssim": float("nan")}
+                        scores = {"psnr": float("nan"), "ssim": float("nan"), "psnr_edge": float("nan"),
+                                  "psnr_interior": float("nan")}
                     else:
                         each = [_score(ref, img) for ref, img in zip(refs, imgs, strict=True)]
                         scores = {m: float(np.mean([e[m] for e in each])) for m in ("psnr", "ssim")}
+                        for key, inside in (("psnr_edge", True), ("psnr_interior", False)):
+                            scores[key] = float("nan") if bands is None else float(np.mean(
+                                [band_psnr(ref, img, band if inside else ~band)
+                                 for ref, img, band in zip(refs, imgs, bands, strict=True)]))
                     row = {"scene": sc.key, "setting": setting.name, "W": setting.window, "K": setting.K,
                            "L": setting.L, "rung": r, **scores,
                            "seconds_per_frame": float(np.median(secs[r])) if secs[r] else float("nan")}
@@ -464,6 +514,18 @@ def ladder_markdown(result: dict) -> str:
                     per.setdefault(r["rung"], []).append(r["seconds_per_frame"])
             lines.append("\nSeconds per frame of the single-window denoisers (median over frames, mean over scenes): "
                          + ", ".join(f"{RUNG_LABELS[k]} {np.mean(v):.3f}" for k, v in per.items()) + ".")
+        ghost = [r for r in GHOST_RUNGS if r in rungs]
+        edge_rows = [r for r in result["rows"] if r["setting"] == setting and r["rung"] in ghost
+                     and np.isfinite(r.get("psnr_edge", np.nan))]
+        if edge_rows:
+            lines.append(f"\nGhosts: PSNR in the motion-edge band (occlusions and motion discontinuities within one "
+                         f"window, {EDGE_BAND_RADIUS} plane px wide; `motion_edge_band`) / in the interior, "
+                         f"{setting}:\n")
+            lines.append("| scene | " + " | ".join(RUNG_LABELS[r] for r in ghost) + " |")
+            lines.append("|---|" + "---:|" * len(ghost))
+            cell = {(r["scene"], r["rung"]): f"{r['psnr_edge']:.2f} / {r['psnr_interior']:.2f}" for r in edge_rows}
+            for s in dict.fromkeys(r["scene"] for r in edge_rows):
+                lines.append(f"| {s} | " + " | ".join(cell.get((s, g), "—") for g in ghost) + " |")
         epe = [e for e in result["epe"] if e["setting"] == setting]
         if epe:
             steps = sorted({e["step"] for e in epe})
