@@ -753,3 +753,24 @@ def test_bad_hot_pixel_maps_are_refused_in_one_line(tmp_path, capsys, monkeypatc
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "x").exists()
+
+
+def test_every_option_of_reconstruct_denoise_and_bench_is_in_docs_options():
+    """``docs/options.md`` lists every option of the three commands that make or measure frames (issue: each option
+    with what it buys); a new option without its line there fails here."""
+    from pathlib import Path
+
+    from spikeref.cli import build_parser
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "options.md").read_text(encoding="utf-8")
+    parser = build_parser()
+    commands = next(a for a in parser._actions if a.dest == "command").choices
+    missing = []
+    for name in ("reconstruct", "denoise", "bench"):
+        for action in commands[name]._actions:
+            flags = [f for f in action.option_strings if f.startswith("--") or len(f) == 2]
+            if not flags or "--help" in flags:
+                continue
+            if not any(f"`{f}" in text for f in flags):
+                missing.append(f"{name} {flags[0]}")
+    assert not missing, missing
