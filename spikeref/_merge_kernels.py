@@ -110,7 +110,7 @@ def workspace_size(n_core: int, n_shell: int, nc: int, h: int, w: int) -> int:
 
 @njit(parallel=True)
 def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell_idx, box, z0, clip, iterations,
-                        safety, work, est, windows):
+                        safety, noise_floor, work, est, windows):
     """:func:`spikeref.merge.robust_merge` (its module doc) on checked arrays.
 
     ``s`` ``(n, C, h, w)`` float32 or float64, ``base`` ``(n, h, w)`` and ``v`` ``(C, h, w)`` float64;
@@ -236,7 +236,8 @@ def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell
             _box_sum(resid[c], rad, tmp, cum)
             for y in range(h):
                 for x in range(w):
-                    v_hat[c, y, x] = (tmp[y, x] / m[y, x]) / max(dof_box[y, x] / m[y, x], 1e-12)
+                    v_hat[c, y, x] = max((tmp[y, x] / m[y, x]) / max(dof_box[y, x] / m[y, x], 1e-12),
+                                         noise_floor * v[c, y, x])
     for si in range(n_shells):
         sh = shell_idx[shell_start[si]:shell_start[si + 1]]
         ns = sh.size

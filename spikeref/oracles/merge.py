@@ -99,7 +99,8 @@ def robust_merge_oracle(samples, weights, noise, reference, core, params):
     for c in range(nc):
         for y in range(h):
             for x in range(w):
-                v_hat[c, y, x] = _box(resid[c], y, x, p.box) / max(_box(dof, y, x, p.box), 1e-12)
+                v_hat[c, y, x] = max(_box(resid[c], y, x, p.box) / max(_box(dof, y, x, p.box), 1e-12),
+                                     p.noise_floor * v[c, y, x])
     vbar = v.mean(axis=0)
     alive = np.ones((h, w), bool)
     dist = np.abs(np.arange(n) - reference)
@@ -187,6 +188,7 @@ class _Params:
 
     def __init__(self, shells=()):
         self.box, self.z, self.clip, self.iterations, self.shells, self.safety = 5, 3.0, 3.0, 2, shells, 4.0
+        self.noise_floor = 1.0
 
 
 GOLDEN_CASES = (
