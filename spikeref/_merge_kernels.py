@@ -104,7 +104,7 @@ def workspace_size(n_core: int, n_shell: int, nc: int, h: int, w: int) -> int:
     """Float64 values :func:`robust_merge_kernel` needs in ``work``: ``n_core`` core windows, at most ``n_shell``
     windows in one shell, ``nc`` planes of ``h × w``."""
     jobs = max(n_core, n_shell, 1)
-    return h * w * (16 + 5 * n_core + 2 * n_core * nc + 5 * nc + 2 * max(n_shell, 1) + 4 * jobs) + \
+    return h * w * (17 + 5 * n_core + 2 * n_core * nc + 5 * nc + 2 * max(n_shell, 1) + 4 * jobs) + \
         (h + 1) * (w + 1) * (1 + jobs)
 
 
@@ -127,12 +127,13 @@ def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell
     shell_max = 1
     for si in range(shell_start.size - 1):
         shell_max = max(shell_max, shell_start[si + 1] - shell_start[si])
-    flat = work[:16 * hw].reshape((16, h, w))  # one (h, w) buffer each
+    flat = work[:17 * hw].reshape((17, h, w))  # one (h, w) buffer each
     m, im, zq_scale, sumsq, wsum, wsq, unit, dof = flat[0], flat[1], flat[2], flat[3], flat[4], flat[5], flat[6], \
         flat[7]
     alive, excess, count, ex_box, ct_box, shell_fac, dof_box, tmp = flat[8], flat[9], flat[10], flat[11], \
         flat[12], flat[13], flat[14], flat[15]
-    o = 16 * hw
+    uhat = flat[16]
+    o = 17 * hw
     per_core = work[o:o + 5 * nk * hw].reshape((5, nk, h, w))
     cb, share, omega, r, fac = per_core[0], per_core[1], per_core[2], per_core[3], per_core[4]
     o += 5 * nk * hw
@@ -266,7 +267,7 @@ def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell
                 uh = 0.0
                 for c in range(nc):
                     uh += v_hat[c, y, x] + v_hat[c, y, x] * rel
-                dof_box[y, x] = uh  # (dof_box is free once v̂ is made)
+                uhat[y, x] = uh
             for j in range(ns):
                 for x in range(w):
                     if rs[j, y, x] > 0:
@@ -274,7 +275,7 @@ def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell
                         a = rs[j, y, x] * unit[y, x]
                         sumsq[y, x] += a
                         tmp[y, x] += a * a
-                        excess[y, x] += sqs[j, y, x] - dof_box[y, x]
+                        excess[y, x] += sqs[j, y, x] - uhat[y, x]
         _box_sum(excess, rad, ex_box, cum)
         _box_sum(count, rad, ct_box, cum)
         for y in prange(h):

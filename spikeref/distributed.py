@@ -1,10 +1,10 @@
 """Chunked reconstruction on Dask (``dask.distributed``): long recordings on many processes or machines.
 
-The output frame range is cut into chunks of consecutive frames. Chunk ``[a, b)`` needs the windows ``a − reach … b
-− 1 + reach`` (``reach = L (K − 1)/2``), i.e. the planes ``[(a − reach) W, (b + reach) W)``: neighbouring chunks
-overlap by ``2·reach·W = ((K − 1) L + 1) W − W`` planes; with the adaptive merge
-(:attr:`~spikeref.pipeline.ReconstructParams.merge_used`) ``reach`` is ``max(L (K − 1)/2, support)``, as far as its
-support reads. With window charges (``accumulate="charge"``, the default) a window also reads the spike times up to
+The output frame range is cut into chunks of consecutive frames. Chunk ``[a, b)`` needs the windows ``a − reach …
+b−1 + reach`` (``reach = L (K − 1)/2``), i.e. the planes ``[(a − reach) W, (b + reach) W)``: neighbouring chunks
+overlap by ``2·reach·W = ((K − 1) L + 1) W − W`` planes; with the adaptive merge ``reach`` is ``max(L (K − 1)/2,
+support)``, as far as its support reads (:attr:`~spikeref.pipeline.ReconstructParams.windows_read`). With window
+charges (``accumulate="charge"``, the default) a window also reads the spike times up to
 :data:`spikeref.charge.DEFAULT_MARGIN` readouts beyond it, so each chunk reads that margin (rounded up to whole
 windows) more on either side. Each task opens the memory-mapped file itself, slices it to those planes (nothing else
 is read), reconstructs its frames and writes them as EXR files straight into the output folder (atomic writes: a
@@ -69,9 +69,7 @@ def plan_chunks(frames: range, params: ReconstructParams, chunk_frames: int) -> 
         raise ValueError(f"chunk_frames must be a positive integer; got {chunk_frames!r}")
     if not isinstance(frames, range) or frames.step != 1:
         raise TypeError(f"frames must be a range with step 1; got {frames!r}")
-    w, reach = params.window, params.reach
-    if params.merge_used == "adaptive":  # the adaptive support reads up to `support` windows each side
-        reach = max(reach, params.support)
+    w, reach = params.window, params.windows_read
     margin = 0
     if params.accumulate == "charge":  # the spike times around each window's edges, in whole windows
         from spikeref.charge import DEFAULT_MARGIN

@@ -305,6 +305,12 @@ class ReconstructParams:
         return self.L * self.half
 
     @property
+    def windows_read(self) -> int:
+        """Windows on each side of the reference that frame ``k`` reads: :attr:`reach`, or ``support`` with the
+        adaptive merge (:attr:`merge_used`), which chains further where the recording has windows."""
+        return max(self.reach, self.support) if self.merge_used == "adaptive" else self.reach
+
+    @property
     def support_windows(self) -> int:
         """``(K − 1)L + 1`` windows."""
         return 2 * self.reach + 1
@@ -938,11 +944,11 @@ class _State:
             low = next_k - (L - step) * hh
             for key in [key for key in ring if key < low]:
                 del ring[key]
-        far = self.p.support if self.p.merge_used == "adaptive" else 0  # the adaptive support reads further back
-        low0 = next_k - max(L * hh, far)
-        for key in [key for key in self.counts if key < low0]:
+        read = self.p.windows_read  # the adaptive support reads further back
+        for key in [key for key in self.counts if key < next_k - read]:
             del self.counts[key]
-        for key in [key for key in self.step0 if key < next_k - max((L - 1) * hh, far)]:
+        low0 = next_k - (read if self.p.merge_used == "adaptive" else (L - 1) * hh)  # F_0: the chains' or the steps'
+        for key in [key for key in self.step0 if key < low0]:
             del self.step0[key]
         for key in [key for key in self.merge_windows if key < next_k]:
             del self.merge_windows[key]
