@@ -613,7 +613,7 @@ physical limit (the noise-free mosaic of the truth through Ψ), and scores each 
 truth (PSNR, linear RGB): {labels}.  This is a small run made by the tour itself — {frames}
 scored frame per scene on {scene_list} — not the benchmark's full ladder (`docs/ladder.png`, made
 by `spikeref bench --ladder` on its eight scenes, four frames each, with the classical peers and
-the MHC demosaic; its table is in `docs/results.md`).  Here: {gains}.  With one frame per
+the MHC demosaic; its table is in `docs/results_history.md`).  Here: {gains}.  With one frame per
 scene, differences under a few tenths of a dB are noise.
 """
 

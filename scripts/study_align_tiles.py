@@ -4,7 +4,7 @@ Part 1 — the held-out translating texture (``scripts/denoiser_scenes/heldout_t
 ``.heldout_data/heldout_texture.dat`` from ``scripts/eval_pipeline.py``): PSNR of ``R_3`` and the
 end-point error of ``F_0 … F_2`` against the known motion, frames 20, 60, 100, 140.
 Part 2 — the five benchmark scenes (``spikeref bench``'s, seed 0, 4 scored frames): mean PSNR
-of four settings of the method.  The figures are in ``docs/results.md`` ("Alignment tile sizes").
+of four settings of the method.  The figures are in ``docs/results_history.md`` ("Alignment tile sizes").
 
     python scripts/study_align_tiles.py [--part 1|2]
 """

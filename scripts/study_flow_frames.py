@@ -4,7 +4,7 @@ For each benchmark scene (``spikeref.bench``, seed 0, 4 scored frames) and four 
 the method (visible; W/K/L = 10/3/3, 10/5/2, 20/5/2, 20/3/3), the mean PSNR and seconds per
 frame with ``flow_frames="denoised"`` and with ``flow_frames="smoothed"`` at each σ of
 ``--sigmas`` (plane pixels; 0 = the raw luma).  This is how
-:data:`spikeref.pipeline.FLOW_SMOOTHING_SIGMA` was chosen (docs/results.md, 2026-11-23).
+:data:`spikeref.pipeline_params.FLOW_SMOOTHING_SIGMA` was chosen (docs/results_history.md, 2026-11-23).
 
     python scripts/study_flow_frames.py [--sigmas 0,0.7,1,1.5]
 """
@@ -17,7 +17,7 @@ import numpy as np
 
 
 def main() -> None:
-    import spikeref.pipeline as pipeline
+    import spikeref.pipeline_params as pipeline_params
     from spikeref.bench.runner import _score, bench_scenes, run_setting, score_centres
     from spikeref.bench.settings import Setting
     from spikeref.denoise.denoiser import Denoiser
@@ -29,7 +29,7 @@ def main() -> None:
     settings = [(10, 3, 3), (10, 5, 2), (20, 5, 2), (20, 3, 3)]
     variants = [("denoised", None)] + [(f"smoothed σ={s:g}", s) for s in sigmas]
     den = Denoiser.load()
-    default_sigma = pipeline.FLOW_SMOOTHING_SIGMA
+    default_sigma = pipeline_params.FLOW_SMOOTHING_SIGMA
     scores = {}
     try:
         for sc in bench_scenes():
@@ -39,7 +39,7 @@ def main() -> None:
             for w, k, level in settings:
                 for name, sigma in variants:
                     if sigma is not None:
-                        pipeline.FLOW_SMOOTHING_SIGMA = sigma
+                        pipeline_params.FLOW_SMOOTHING_SIGMA = sigma
                     setting = Setting("ours", w, K=k, L=level, flow_frames="denoised" if sigma is None else "smoothed")
                     frames, timing = run_setting(setting, sc.stream, centres, den, accumulate="count")
                     psnr = float(np.mean([_score(r, f)["psnr"] for r, f in zip(refs, frames, strict=True)]))
@@ -48,7 +48,7 @@ def main() -> None:
                           f"{timing['seconds_per_frame']:.4f} s/frame", flush=True)
             sc.stream = None
     finally:
-        pipeline.FLOW_SMOOTHING_SIGMA = default_sigma
+        pipeline_params.FLOW_SMOOTHING_SIGMA = default_sigma
     print("\n| W/K/L | " + " | ".join(name for name, _ in variants) + " |")
     print("|---|" + "---|" * len(variants))
     for w, k, level in settings:

@@ -11,7 +11,7 @@ output guard's per-pixel noise variance replaced, for the output frame only:
   quantisation floor;
 * ``max`` / ``min``: the larger / smaller of that and the package's variance.
 
-It patches ``spikeref.pipeline._State._composed`` and the guard's ``sure_blend`` in this process only.
+It patches ``spikeref.pipeline_rings.FrameRings._composed`` and the guard's ``sure_blend`` in this process only.
 Prints PSNR per scene and the mean of ``ours``.
 """
 import statistics
@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 from scipy.ndimage import uniform_filter
-import spikeref.pipeline as pl
+import spikeref.pipeline_rings as pr
 import spikeref.denoise.denoiser as dn
 import spikeref.denoise.guard as gd
 from spikeref.compose import composed_warp
@@ -30,7 +30,7 @@ MODE = sys.argv[1]  # "default" | "temporal" | "max" | "min"
 BOX = int(sys.argv[2]) if len(sys.argv) > 2 else 9
 STATE = {"var": None}
 
-orig_composed = pl._State._composed
+orig_composed = pr.FrameRings._composed
 def composed(self, k, top):
     out = orig_composed(self, k, top)
     if MODE == "default":
@@ -49,7 +49,7 @@ def composed(self, k, top):
     var_merged = var_w * np.sum(wts ** 2)
     STATE["var"] = uniform_filter(var_merged, size=(1, BOX, BOX), mode="nearest")
     return out
-pl._State._composed = composed
+pr.FrameRings._composed = composed
 
 orig_blend = dn.sure_blend
 def blend(noisy, denoise, radius=gd.DEFAULT_RADIUS, sigma=None, window=None, carried=None, accumulate="count"):

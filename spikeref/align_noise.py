@@ -12,7 +12,8 @@ measures that noise and turns it into the search's thresholds:
   noise-aware search, ``AlignParams(prefer_centre=z)``;
 * the per-pixel zero-motion test (:func:`zero_motion_test`, ``AlignParams(zero_test=z)``).
 
-The rules are written out in ``docs/spec/align.md`` and in :mod:`spikeref.oracles.align`.
+The rules are written out in ``docs/spec/align.md`` and in :mod:`spikeref.oracles.align_noise` and
+:mod:`spikeref.oracles.align_zero_test` (put together by :mod:`spikeref.oracles.align`).
 """
 
 from __future__ import annotations

@@ -124,7 +124,7 @@ class AlignParams:
         the last value serves every later step.  ``(32, 16, 8)``: large tiles while frames are
         noisy, halved at each step (supplement: "larger patch sizes for these initial frames,
         progressively decreasing the patch size"); 16 and 8 are HDR+'s two tile sizes, 32 is
-        for the noisiest frames, those of step 0.  Measured (``docs/results.md``, "Alignment
+        for the noisiest frames, those of step 0.  Measured (``docs/results_history.md``, "Alignment
         tile sizes"): against ``(16, 16, 8)`` the flow error on a translating texture falls from
         0.84 to 0.31 plane px at step 0, and the benchmark's mean PSNR rises 0.07–0.21 dB.
     coarse_tile : int

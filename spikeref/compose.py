@@ -5,7 +5,7 @@ spike windows onto ``I_1``, each Eq. 15 step warps the previous step's frames ag
 is therefore the average, over every **path** ``π = (i_L, …, i_1)`` (``i ∈ {−h … h}``) of the
 ``K^L`` paths through the steps, of window ``k + Σ i`` resampled ``L`` times in a row —
 bilinearly each time, which blurs the detail of natural images (the stage ladder in
-``docs/results.md``: on the photographs it costs 1–2 dB against the true-flow ceiling, while
+``docs/results_history.md``: on the photographs it costs 1–2 dB against the true-flow ceiling, while
 the flows themselves are nearly right).
 
 This module computes the same average with the same flows, but **moves the sample positions
@@ -53,7 +53,7 @@ instead of one per path (7 against 27 at ``K = 3, L = 3``):
     \\qquad \\bar x_j = \\frac{1}{n_j(x)} \\sum_{π → j,\\ v_π(x) = 1} x_π,
 
 ``n_j(x)`` the number of paths ending in window ``j`` whose position lies inside the plane.  The
-positions are summed in path order.  Measured (``docs/results.md``, "One sample per window"): the same
+positions are summed in path order.  Measured (``docs/results_history.md``, "One sample per window"): the same
 PSNR as one sample per path on the benchmark and held-out means (+0.02 and +0.00 dB), the warp 2.1× faster.
 """
 

@@ -535,7 +535,8 @@ GIVEN = {"noise": 9e-4, "correlation": -0.5}
     ("no noise: the plain search plus zero", 7, (2, -3), -0.5, {"noise": 0.0, "correlation": 0.0}),
 ])
 def test_noise_aware_search_matches_the_oracle(name, seed, shift, rho, kw):
-    # the literal transcription of docs/spec/align.md#noise-aware-search (spikeref/oracles/align.py)
+    # the literal transcription of docs/spec/align.md#noise-aware-search (spikeref/oracles/align_search.py and
+    # align_noise.py, put together by spikeref/oracles/align.py)
     for params, shape in ((NOISE_AWARE_SMALL, (24, 32)), (NOISE_AWARE_THREE, (40, 48))):
         ref, alt = noisy_pair(shape, seed, shift, rho)
         given = dict(kw)
@@ -843,8 +844,9 @@ def test_zero_motion_test_checks_its_arguments():
 
 
 # ----------------------------------------------------------------------------- the options' oracles
-# refine="lk", smoothness and zero_test against their literal transcriptions (spikeref/oracles/align.py,
-# docs/spec/align.md#lucas-kanade-refinement, #regularised-tile-field, #per-pixel-zero-motion-test)
+# refine="lk", smoothness and zero_test against their literal transcriptions (spikeref/oracles/align_refine.py and
+# align_zero_test.py; docs/spec/align.md#lucas-kanade-refinement, #regularised-tile-field,
+# #per-pixel-zero-motion-test)
 LK_SMALL = AlignParams(levels=2, tile_by_step=(16, 8), coarse_tile=8, search_radius=(1, 2), refine="lk")
 LK_ALL = AlignParams(levels=2, tile_by_step=(16, 8), coarse_tile=8, search_radius=(1, 2), refine="lk",
                      smoothness=300.0, prefer_centre=3.0, zero_test=2.0)

@@ -241,7 +241,7 @@ def test_reconstruct_without_a_denoiser(tmp_path, capsys):
     assert "the fastest preset, no denoiser)" in err and "weights" not in err.splitlines()[0]
     assert "\nnetwork         0.000" in err
     assert main(["reconstruct", "--exr-dir", str(tmp_path / "n"), "--frames", "3:4", "--no-denoiser"]) == 0
-    assert "composed warp (window samples), no denoiser)" in capsys.readouterr().err
+    assert "composed warp, no denoiser)" in capsys.readouterr().err
     want = next(iter(Reconstructor(load_sample(), ReconstructParams.fastest()).frames(3, 4))).rgb
     np.testing.assert_allclose(read_exr(tmp_path / "f" / "frame_000003.exr"), want, rtol=1e-6)
     assert main(["reconstruct", "-o", str(tmp_path / "x.mp4"), "--no-denoiser", "--weights", "b2u_w16"]) == 2
@@ -295,8 +295,8 @@ def test_resume_recomputes_empty_truncated_and_foreign_frames(tmp_path, random_w
 @pytest.mark.parametrize("extra, message", [
     (["--frames", "0:5"], "this stream has frames 3:23"),
     (["--frames", "5:3"], "--frames 5:3: an empty range"),
-    (["--paper", "--resample", "path"], "--resample path applies to the composed and chained warps; this run uses "
-                                        "the progressive warp"),
+    (["--accumulate", "count", "--support", "20"], "--support applies to the adaptive merge; this run merges with "
+                                                    "the binomial merge (--accumulate count makes it so"),
     (["--frames", "x"], "--frames must be a:b (frame numbers, b excluded) or a number of frames; got 'x'"),
     (["--frames", "1:2:3"], "--frames must look like a:b"),
     (["-K", "2"], "-K must be odd (the reference is the middle window); got 2"),

@@ -193,11 +193,12 @@ def test_cli_denoise_writes_video_and_exr(tmp_path):
 
 def test_cli_denoise_charge_takes_the_charge_network(tmp_path, monkeypatch):
     """--accumulate charge: window charges (spikeref.charge) and, without --weights, pairs_w16_charge."""
-    import spikeref.cli as cli
+    from spikeref.cli import weights as cli_weights  # the commands call it there: cli_weights.load_denoiser
 
     loaded = []
-    real = cli._load_denoiser
-    monkeypatch.setattr(cli, "_load_denoiser", lambda weights, **kw: loaded.append(weights) or real(weights, **kw))
+    real = cli_weights.load_denoiser
+    monkeypatch.setattr(cli_weights, "load_denoiser",
+                        lambda weights, **kw: loaded.append(weights) or real(weights, **kw))
     out = tmp_path / "c.mp4"
     assert main(["denoise", "-W", "10", "--frames", "1", "--accumulate", "charge", "-o", str(out)]) == 0
     assert out.stat().st_size > 0 and loaded == ["pairs_w16_charge"]
@@ -206,7 +207,7 @@ def test_cli_denoise_charge_takes_the_charge_network(tmp_path, monkeypatch):
 def test_each_accumulation_loads_the_network_trained_on_it(tmp_path, monkeypatch):
     """bundled_weights: counts → b2u_w16, charges → pairs_w16_charge; the pipeline without a denoiser and
     `spikeref reconstruct` without --weights load the one for their accumulation (charges by default)."""
-    import spikeref.cli as cli
+    from spikeref.cli import weights as cli_weights  # the commands call it there: cli_weights.load_denoiser
     from spikeref.denoise.denoiser import bundled_weights
     from spikeref.pipeline import ReconstructParams, Reconstructor
 
@@ -221,8 +222,9 @@ def test_each_accumulation_loads_the_network_trained_on_it(tmp_path, monkeypatch
     Reconstructor(load_sample(), ReconstructParams.paper())
     assert [p.name for p in loaded] == ["pairs_w16_charge.npz", "b2u_w16.npz"]
     names = []
-    real = cli._load_denoiser
-    monkeypatch.setattr(cli, "_load_denoiser", lambda weights, **kw: names.append(str(weights)) or real(weights, **kw))
+    real = cli_weights.load_denoiser
+    monkeypatch.setattr(cli_weights, "load_denoiser",
+                        lambda weights, **kw: names.append(str(weights)) or real(weights, **kw))
     for extra in ([], ["--paper"], ["--accumulate", "count"]):
         assert main(["reconstruct", "--frames", "3:4", "-o", str(tmp_path / "r.mp4"), *extra]) == 0
     assert names == ["pairs_w16_charge", "b2u_w16", "b2u_w16"]
@@ -300,6 +302,21 @@ def test_count_domain_network_sees_counts_and_returns_rates():
         den(planes)
     with pytest.raises(ValueError, match="window must be a positive"):
         den(planes, window=0)
+
+
+def test_an_exposure_channel_network_is_told_log10_of_the_window():
+    """A network with an exposure channel (UNetSpec.in_channels = 2) runs on I·W with level log10(W), in every mode."""
+    net = UNet.random(UNetSpec(width=8, depth=3, in_channels=2), seed=2)
+    net.meta["input_domain"] = "count"
+    den = Denoiser(net, guard="off", shrink=False)
+    planes = (np.random.default_rng(5).integers(0, 21, (4, 12, 20)) / 20).astype(np.float32)
+    np.testing.assert_allclose(den(planes, window=20), net(planes * np.float32(20), level=np.log10(20.0)) / 20,
+                               rtol=1e-6, atol=1e-7)
+    blind = den(planes, "blind", window=20)
+    outs = net(masked_volume(planes[0] * np.float32(20)), level=np.log10(20.0))
+    np.testing.assert_allclose(blind[0], mask_aware_average(outs, cell_masks(12, 20)) / 20, rtol=1e-5, atol=1e-6)
+    with pytest.raises(ValueError, match="pass window="):
+        den(planes)
 
 
 def test_rate_domain_network_uses_the_window_only_to_shrink(small):

@@ -111,8 +111,6 @@ BAD = [
     ("denoise: window past the end", lambda d: ["denoise", "--start", "260", "--exr-dir", "e"],
      "no whole window"),
     ("denoise: --frames 0", lambda d: ["denoise", "--frames", "0", "--exr-dir", "e"], "--frames must be a positive"),
-    ("denoise: --lam -1", lambda d: ["denoise", "--mode", "mixed", "--lam", "-1", "--exr-dir", "e"],
-     "--lam must be a finite number ≥ 0"),
     ("denoise: --fps 0", lambda d: ["denoise", "-o", "v.mp4", "--exr-dir", "e", "--fps", "0"],
      "--fps must be a finite number > 0"),
     ("denoise: -o v.xyz", lambda d: ["denoise", "-o", "v.xyz", "--exr-dir", "e"], "must end in .mp4 or .gif"),

@@ -53,6 +53,8 @@ LAYERS = {
     "spikeref.simulate": 3,
     "spikeref.noise_check": 3,
     "spikeref.pipeline": 4,
+    "spikeref.pipeline_params": 4,
+    "spikeref.pipeline_rings": 4,
     "spikeref.render": 5,
     "spikeref.sample": 5,
     "spikeref.distributed": 5,

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import spikeref.accumulate as acc_mod
-import spikeref.pipeline as pipeline_mod
+import spikeref.pipeline_rings as rings_mod
 from spikeref.accumulate import accumulate
 from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
 from spikeref.pipeline import (
@@ -35,6 +35,11 @@ def halve(planes):  # a denoiser that is not the identity, to see where D is app
 @pytest.fixture(scope="module")
 def sample():
     return load_sample()
+
+
+def _rings(rec):
+    """The rings of one pass of ``rec`` (what :meth:`Reconstructor.frames` makes)."""
+    return rings_mod.FrameRings(rec.stream, rec.params, rec.timed, rec._denoise, rec._repair)
 
 
 def _tfp_rgb(stream, start, length, den=identity):
@@ -166,12 +171,9 @@ def test_reads_only_the_support_and_rings_stay_bounded(sample, monkeypatch, warp
         seen.append(start // window)
         return real(stream, window, start, count, out)
 
-    monkeypatch.setattr(pipeline_mod, "window_counts", spy)  # the pipeline's own name for Eq. 4
+    monkeypatch.setattr(rings_mod, "window_counts", spy)  # the pipeline's own name for Eq. 4
     params = ReconstructParams(window=10, K=3, L=3, warp=warp, accumulate="count")  # Eq. 4, window by window
-    rec = Reconstructor(sample, params, denoiser=identity)
-    from spikeref.pipeline import _State
-
-    state = _State(rec)
+    state = _rings(Reconstructor(sample, params, denoiser=identity))
     for k in range(10, 14):
         state.output(k, False)
         state.evict(k + 1)
@@ -192,11 +194,9 @@ def test_the_adaptive_support_reads_each_window_once_and_stays_bounded(sample, m
         seen.append(start // window)
         return real(stream, window, start, count, out)
 
-    monkeypatch.setattr(pipeline_mod, "window_counts", spy)
+    monkeypatch.setattr(rings_mod, "window_counts", spy)
     params = ReconstructParams(window=10, K=3, L=3, accumulate="count", merge="adaptive", support=5)
-    from spikeref.pipeline import _State
-
-    state = _State(Reconstructor(sample, params, denoiser=identity))
+    state = _rings(Reconstructor(sample, params, denoiser=identity))
     sizes = set()
     for k in range(10, 14):
         state.output(k, False)
@@ -642,7 +642,7 @@ def test_hot_pixels_are_found_and_replaced_before_anything_reads_the_windows():
     err_on, err_off = np.abs(on - ref)[around].max(), np.abs(off - ref)[around].max()
     assert err_off > 0.1 and err_on < 0.5 * err_off, (err_on, err_off)
     # windows are repaired where they are made: the count path keeps float32 planes with the hot values gone
-    st = pipeline_mod._State(Reconstructor(stream, replace(params, accumulate="count")))
+    st = _rings(Reconstructor(stream, replace(params, accumulate="count")))
     planes = st.window_counts(1)
     assert planes.dtype == np.float32 and planes[bayer_planes(mask)].max() < 6  # 10 planes at ≤ 0.45 + noise
 

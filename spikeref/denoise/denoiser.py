@@ -24,7 +24,7 @@ from spikeref.charge import ACCUMULATE, WINDOWS_PER_CALL, charge_rates
 from spikeref.denoise.blindspot import MODES, blindspot_denoise, check_cell
 from spikeref.denoise.guard import DEFAULT_RADIUS, GUARDS, NOISE_WINDOW, sure_blend, trusted_excess
 from spikeref.denoise.shrinkage import shrink_residual
-from spikeref.denoise.unet import UNet
+from spikeref.denoise.unet import UNet, exposure_level
 from spikeref.hot_pixels import HotPixelRepair, hot_pixels_to_replace
 
 __all__ = ["Denoiser", "DEFAULT_WEIGHTS", "WEIGHTS_DIR", "BUNDLED_FOR", "bundled_weights"]
@@ -74,7 +74,7 @@ class Denoiser:
     shrink : bool
         After the network, give back the part of the residual ``I − D(I)`` that exceeds the
         binomial noise of the exposure (:mod:`spikeref.denoise.shrinkage`; not in the paper,
-        on by default because it measured better at every window — ``docs/results.md``).
+        on by default because it measured better at every window — ``docs/results_history.md``).
         ``False`` gives the paper's ``D(I)`` exactly.  Needs the exposure: a call without
         ``window`` (possible for a rate-domain network) skips it.  Not applied under a guard.
     guard : {"sure", "off"}
@@ -219,8 +219,16 @@ class Denoiser:
     def _network(self, planes, mode, window) -> np.ndarray:
         """The network in ``mode`` (Eq. 10–11 or ``f(I)``) on rates, without guard or shrinkage."""
         arr = self._check_planes(planes, window)
+        net = self.unet
+        if self.unet.spec.in_channels == 2:  # told the exposure (UNetSpec.in_channels)
+            if window is None:
+                raise ValueError("these weights read the exposure: pass window= (the exposure in planes)")
+            level = exposure_level(window)
+
+            def net(batch):
+                return self.unet(batch, level=level)
         if self.input_domain == "rate":
-            out = blindspot_denoise(arr.astype(np.float32, copy=False), self.unet, mode or self.mode,
+            out = blindspot_denoise(arr.astype(np.float32, copy=False), net, mode or self.mode,
                                     cell=self.cell, lam=self.lam)
         elif window is None:
             raise ValueError("these weights denoise spike counts: pass window= (the exposure in planes, "
@@ -228,7 +236,7 @@ class Denoiser:
         else:
             scale = np.float32(window)
             counts = arr.astype(np.float32) * scale
-            out = blindspot_denoise(counts, self.unet, mode or self.mode, cell=self.cell, lam=self.lam)
+            out = blindspot_denoise(counts, net, mode or self.mode, cell=self.cell, lam=self.lam)
             out /= scale
         return out
 

@@ -51,7 +51,7 @@ Interpretations (the noise of spike counts):
   ``W ≳ 50`` every estimate made from the plane itself reads texture and the sensor's fixed pattern as
   noise: on the real SpikingSIM recording it is 1.3–2.4× the true noise at ``W`` = 50–200 (the pixels'
   fixed pattern alone, which the recording's pseudo ground truth carries too, is ≈ 3 % of the rate) and
-  the guard then trusts a network that smooths the branches and the pattern (``docs/results.md``).  So
+  the guard then trusts a network that smooths the branches and the pattern (``docs/results_history.md``).  So
   the plane's ``σ_c²`` is capped at ``e + mean q(f(y))`` (``q`` the floor at ``W``), with ``e`` by how
   much the guard can tell:
 

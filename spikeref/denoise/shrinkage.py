@@ -2,8 +2,8 @@
 
 Not in the paper.  The paper's output is ``Ψ[D(I)]``.  A blind-spot network trained on all
 windows ``W = 5…200`` (``docs/equations.md``, Eq. 12) smooths a little at every exposure.  At long windows
-the noise it removes is small and that smoothing costs PSNR at colour edges (``docs/results.md``,
-denoiser section).  This step is a local Wiener rule on the residual ``r = I − D(I)``:
+the noise it removes is small and that smoothing costs PSNR at colour edges (``docs/results_history.md``,
+"The former network without the guard").  This step is a local Wiener rule on the residual ``r = I − D(I)``:
 
 .. math::
 

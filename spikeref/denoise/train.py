@@ -33,7 +33,7 @@ and ``spikeref denoise --accumulate charge``, whose input noise is not the count
 
 Cost: a step runs the network with gradient on ``k·4·batch`` images and without on
 ``4·batch``; the backward pass dominates, so ``k = 1`` costs an order of magnitude less than
-``k = 16`` for the same crops (``docs/results.md``, "Training on two cores": the CPU recipe of
+``k = 16`` for the same crops (``docs/results.md``, "Bundled weights: trained on two CPU cores": the CPU recipe of
 ``scripts/train_denoiser.py``, which also halves the crop side, 27× less per step).
 
 With ``objective="pairs"`` (not in the paper; :attr:`TrainConfig.objective`) steps 3–4 are replaced by
@@ -78,8 +78,8 @@ INPUT_DOMAINS = ("count", "rate")
 #: disjoint stretches of a static stream (Noise2Noise).
 OBJECTIVES = ("b2u", "pairs")
 
-__all__ = ["TrainConfig", "INPUT_DOMAINS", "OBJECTIVES", "CropSampler", "masked_volume_torch", "blind_and_visible",
-           "blind_subset_and_visible", "train_step", "train"]
+__all__ = ["TrainConfig", "INPUT_DOMAINS", "OBJECTIVES", "CropSampler", "WithExposure", "masked_volume_torch",
+           "blind_and_visible", "blind_subset_and_visible", "train_step", "train"]
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ class TrainConfig:
         Interpretation (the paper is silent): with rates, the noise level falls as ``1/W`` and a
         network trained over W = 5…200 cannot tell a long clean window from a short noisy one —
         it over-smooths long windows (measured: −1.4 dB against the plain TFP at W = 200, see
-        ``docs/results.md``).  Counts keep the noise level about constant; the
+        ``docs/results_history.md``).  Counts keep the noise level about constant; the
         :class:`~spikeref.denoise.denoiser.Denoiser` multiplies by the exposure and divides back.
     checkpoint_every : int
         Steps between checkpoints.
@@ -139,6 +139,11 @@ class TrainConfig:
         spread, hot pixels) included, as they are in both; the integrate-and-fire residual makes
         the two only nearly independent for dim pixels (unlabeled spikes only, no blind spot).
         Every stream must be at least ``window_max + 2·M + 100`` planes long.
+    exposure_channel : bool
+        ``True`` (not in the paper): the network reads a second input channel, the constant
+        :func:`~spikeref.denoise.unet.exposure_level` of each image's window (``UNetSpec.in_channels = 2``),
+        so that it is told the exposure instead of guessing the noise from the image; every masked copy of
+        an image (Eq. 10) carries its image's level.
     """
 
     width: int = 16
@@ -159,6 +164,7 @@ class TrainConfig:
     seed: int = 0
     accumulate: str = "count"
     objective: str = "b2u"
+    exposure_channel: bool = False
 
     def __post_init__(self):
         for name in ("width", "depth", "steps", "batch", "patch", "window_min", "window_max", "cell",
@@ -182,11 +188,13 @@ class TrainConfig:
             raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}; got {self.objective!r}")
         if self.masks_per_step > self.cell**2:
             raise ValueError(f"masks_per_step ({self.masks_per_step}) must be ≤ cell² = {self.cell**2}")
-        UNetSpec(width=self.width, depth=self.depth)  # validates the shape
+        if not isinstance(self.exposure_channel, bool):
+            raise TypeError(f"exposure_channel must be True or False; got {self.exposure_channel!r}")
+        UNetSpec(width=self.width, depth=self.depth, in_channels=2 if self.exposure_channel else 1)  # validates
 
     @property
     def spec(self) -> UNetSpec:
-        return UNetSpec(width=self.width, depth=self.depth)
+        return UNetSpec(width=self.width, depth=self.depth, in_channels=2 if self.exposure_channel else 1)
 
 
 # ----------------------------------------------------------------------------- data
@@ -445,6 +453,25 @@ def blind_and_visible(model, x: torch.Tensor, cell: int = 4) -> tuple[torch.Tens
 
 
 # ----------------------------------------------------------------------------- the loop
+class WithExposure(torch.nn.Module):
+    """``model`` on one-channel images ``(k·N, 1, H, W)``, each given the exposure channel of its image.
+
+    ``levels`` ``(N,)``: :func:`~spikeref.denoise.unet.exposure_level` of each of the ``N`` images; a batch of
+    ``k·N`` (the masked volume of Eq. 10 flattened mask-major, as :func:`blind_subset_and_visible` makes it)
+    repeats them ``k`` times.
+    """
+
+    def __init__(self, model, levels: torch.Tensor):
+        super().__init__()
+        self.model, self.levels = model, levels
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        lev = self.levels.repeat(x.shape[0] // self.levels.shape[0])[:, None, None, None]
+        chan = lev.to(x.dtype).expand(x.shape[0], 1, x.shape[2], x.shape[3])
+        both = torch.cat([x, chan], dim=1)
+        return self.model(both.contiguous(memory_format=torch.channels_last))
+
+
 def train_step(model, opt, sampler: CropSampler, rng: np.random.Generator, cfg: TrainConfig, lam: float) -> float:
     """One optimiser step (steps 1–4 of the module doc) at ``λ = lam``; returns the loss.
 
@@ -458,6 +485,8 @@ def train_step(model, opt, sampler: CropSampler, rng: np.random.Generator, cfg: 
     # on counts each image's terms are divided by W: count-domain errors grow with W, their noise does
     # not; 1/W sits between the two so that no octave of W swamps the gradient
     s = windows.rsqrt()[:, None, None, None] if cfg.input_domain == "count" else 1.0
+    if cfg.exposure_channel:  # log10 W, as spikeref.denoise.unet.exposure_level
+        model = WithExposure(model, torch.log10(windows))
     if cfg.objective == "pairs":
         out = model(x.contiguous(memory_format=torch.channels_last)).contiguous()
         loss = torch.mean(((out - target) * s) ** 2)
@@ -538,7 +567,8 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
     step, losses, seconds = 0, [], 0.0
     if resume and checkpoint.is_file():
         state = torch.load(checkpoint, map_location=dev, weights_only=False)
-        if {"objective": "b2u", **state["config"]} != asdict(cfg):  # checkpoints older than the objective
+        older = {"objective": "b2u", "exposure_channel": False}  # what checkpoints older than these fields were
+        if {**older, **state["config"]} != asdict(cfg):
             raise ValueError(f"{checkpoint}: written with another configuration {state['config']}; "
                              "use the same options or another checkpoint path")
         model.load_state_dict(state["model"])
@@ -588,6 +618,7 @@ def train(streams, output, config: TrainConfig | None = None, checkpoint=None, r
         "config": asdict(cfg),
         "input_domain": cfg.input_domain,
         "accumulate": cfg.accumulate,
+        **({"exposure_channel": "log10(window)"} if cfg.exposure_channel else {}),
         "steps_run": step,
         "final_loss": summary["final_loss"],
         "loss_per_percent": per_percent,

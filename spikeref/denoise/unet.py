@@ -45,7 +45,7 @@ from spikeref.denoise._unet_kernels import buffers, maxpool_into, release_buffer
 from spikeref.denoise.conv import conv_padded
 from spikeref.io.unet_weights import WEIGHTS_FORMAT, read_unet_weights, write_unet_weights
 
-__all__ = ["UNetSpec", "UNet", "layer_shapes", "release_buffers", "WEIGHTS_FORMAT"]
+__all__ = ["UNetSpec", "UNet", "layer_shapes", "exposure_level", "release_buffers", "WEIGHTS_FORMAT"]
 
 
 @dataclass(frozen=True)
@@ -57,17 +57,23 @@ class UNetSpec:
     width : int
         Channels ``C`` of the hidden layers (even, ≥ 2); 32 by default, 16 in every bundled network.
         Blind2Unblind (the paper's ref. [31]) uses 48; the paper gives none.  A smaller width is faster on a CPU
-        (``docs/results.md``).
+        (``docs/results_history.md``).
     depth : int
         Encoder (and decoder) blocks; the input is padded to a multiple of ``2**depth``.
         The paper's network has 5.
     negative_slope : float
         Slope of LeakyReLU for negative inputs (0.1 by default; the paper gives none).
+    in_channels : {1, 2}
+        1 (default, the paper's network): the image alone.  2 (not in the paper): the image and an
+        *exposure channel*, the constant :func:`exposure_level` of the window behind it, so that one
+        network can tell a short noisy window from a long clean one of the same count
+        (``docs/results.md``, "The exposure as an input channel").
     """
 
     width: int = 32
     depth: int = 5
     negative_slope: float = 0.1
+    in_channels: int = 1
 
     def __post_init__(self):
         for name in ("width", "depth"):
@@ -76,6 +82,9 @@ class UNetSpec:
                 raise ValueError(f"UNetSpec.{name} must be a positive integer; got {v!r}")
         if self.width < 2 or self.width % 2:
             raise ValueError(f"UNetSpec.width must be even and ≥ 2; got {self.width}")
+        if isinstance(self.in_channels, bool) or self.in_channels not in (1, 2):
+            raise ValueError(f"UNetSpec.in_channels must be 1 or 2 (the image, and the exposure channel); "
+                             f"got {self.in_channels!r}")
         if not (np.isfinite(self.negative_slope) and 0 <= self.negative_slope < 1):
             raise ValueError(f"UNetSpec.negative_slope must lie in [0, 1); got {self.negative_slope!r}")
 
@@ -85,10 +94,22 @@ class UNetSpec:
         return 2**self.depth
 
 
+def exposure_level(window: float) -> float:
+    """The exposure channel's value for a window of ``window`` planes: ``log10(window)`` (1 at 10 planes).
+
+    Constant over the image (:attr:`UNetSpec.in_channels` = 2).  A logarithm because the noise of a window's
+    count relative to its signal falls as a power of ``W``; the training windows span 5–200 planes (0.7–2.3).
+    """
+    w = float(window)
+    if not (np.isfinite(w) and w > 0):
+        raise ValueError(f"window must be a positive number of planes; got {window!r}")
+    return float(np.log10(w))
+
+
 def layer_shapes(spec: UNetSpec) -> dict[str, tuple[int, int]]:
     """``{name: (in_channels, out_channels)}`` of the convolutions, in the order they run."""
     c = spec.width
-    shapes = {"head0": (1, c), "head1": (c, c)}
+    shapes = {"head0": (spec.in_channels, c), "head1": (c, c)}
     for k in range(1, spec.depth + 1):
         shapes[f"enc{k}a"] = (c, c)
         shapes[f"enc{k}b"] = (c, c)
@@ -135,9 +156,9 @@ class UNet:
     def from_params(cls, params: dict[str, np.ndarray], spec: UNetSpec | None = None, meta=None) -> "UNet":
         """From PyTorch-layout arrays; the spec is read from ``head0.weight`` and the layer names if not given."""
         if spec is None:
-            width = int(np.asarray(params["head0.weight"]).shape[0])
+            width, cin = (int(v) for v in np.asarray(params["head0.weight"]).shape[:2])
             depth = sum(1 for k in params if k.startswith("enc") and k.endswith("a.weight"))
-            spec = UNetSpec(width=width, depth=depth)
+            spec = UNetSpec(width=width, depth=depth, in_channels=cin)
         return cls(spec, params, meta)
 
     @classmethod
@@ -164,6 +185,8 @@ class UNet:
     def save(self, path) -> Path:
         """Write the weights ``.npz`` (atomically; :mod:`spikeref.io.unet_weights`)."""
         shape = {"width": self.spec.width, "depth": self.spec.depth, "negative_slope": self.spec.negative_slope}
+        if self.spec.in_channels != 1:  # files of one-channel networks stay as they were
+            shape["in_channels"] = self.spec.in_channels
         return write_unet_weights(path, shape, self.params, self.meta)
 
     @property
@@ -175,13 +198,16 @@ class UNet:
         return f"UNet(width={s.width}, depth={s.depth}, parameters={self.n_parameters})"
 
     # -- inference ------------------------------------------------------------------------------
-    def __call__(self, batch) -> np.ndarray:
+    def __call__(self, batch, level: float | None = None) -> np.ndarray:
         """``f_θ`` on a batch of one-channel images.
 
         Parameters
         ----------
         batch : ndarray ``(N, h, w)`` or ``(h, w)``, float
             Bayer planes in the weights' domain (counts or rates, module docstring); any ``h, w ≥ 1``.
+        level : float, optional
+            The exposure channel's value (:func:`exposure_level` of the window), for a network with
+            ``spec.in_channels == 2``, where it is required; a one-channel network refuses it.
 
         Returns
         -------
@@ -196,17 +222,25 @@ class UNet:
             raise ValueError(f"batch is empty: shape {x.shape}")
         if not np.all(np.isfinite(x)):
             raise ValueError("batch must be finite")
+        if self.spec.in_channels == 2:
+            if level is None:
+                raise ValueError("this network reads an exposure channel: pass level=exposure_level(window)")
+            if (isinstance(level, bool) or not isinstance(level, (int, float, np.integer, np.floating))
+                    or not np.isfinite(level)):
+                raise ValueError(f"level must be a finite number; got {level!r}")
+        elif level is not None:
+            raise ValueError("level= is for a network with an exposure channel (spec.in_channels == 2)")
         single = x.ndim == 2
         x = x[None] if single else x
         n, h, w = x.shape
         m = self.spec.multiple
         ph, pw = (-h) % m, (-w) % m
         xp = np.pad(x.astype(np.float32), ((0, 0), (0, ph), (0, pw)), mode="reflect")  # a side of 1 repeats
-        out = self._forward(xp, keep=(h, w))[:, :h, :w]
+        out = self._forward(xp, keep=(h, w), level=level)[:, :h, :w]
         return np.ascontiguousarray(out[0] if single else out)
 
-    def _forward(self, x: np.ndarray, keep: tuple[int, int] | None = None) -> np.ndarray:
-        """The layers on a padded batch ``(N, h, w)`` float32.
+    def _forward(self, x: np.ndarray, keep: tuple[int, int] | None = None, level: float | None = None) -> np.ndarray:
+        """The layers on a padded batch ``(N, h, w)`` float32 (``level``: the exposure channel's value).
 
         Activations are kept channel-first with a zero border of one pixel, ``(N, C, H + 2, W + 2)``, so
         each convolution reads its input in place.  ``keep = (h0, w0)``: only the output's first ``h0``
@@ -235,8 +269,10 @@ class UNet:
             pool.give(t)
             return out
 
-        t = pool.take(n, 1, h, w)
+        t = pool.take(n, self.spec.in_channels, h, w)
         t[:, 0, 1:-1, 1:-1] = x
+        if self.spec.in_channels == 2:
+            t[:, 1, 1:-1, 1:-1] = np.float32(level)
         t = conv("head1", conv("head0", t))
         skips = [t]
         for k in range(1, self.spec.depth + 1):

@@ -1,7 +1,7 @@
 """Read a user's video or image sequence as frames (the input of the simulator's ``video`` scenes).
 
 Only reading lives here; decoding sRGB, resizing and scaling to radiance are done by
-:mod:`spikeref.simulate.scenes` when it builds a ``video`` scene.
+:mod:`spikeref.simulate.scene_media` when a scene file's ``video`` or ``image`` scene is built.
 """
 
 from __future__ import annotations

@@ -314,7 +314,8 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
               'instead, `refine="lk"`, with `smoothness=300` and `zero_test=2`: the row after the noise-aware '
               "search's), bilinear per-pixel flow"),
         function='`spikeref.align.align`, `align_tiles`, `flow_from_tiles`, `gaussian_pyramid`, `luma`',
-        oracle='`oracles.align.align_tiles_oracle`, `flow_from_tiles_oracle`, `gaussian_pyramid_oracle`',
+        oracle=('`oracles.align.align_tiles_oracle`, `flow_from_tiles_oracle` (their pieces in `oracles.align_search`: '
+                '`gaussian_pyramid_oracle`, `search_oracle`; `oracles.align_refine.quadratic_offset_oracle`)'),
         tests=('`tests/test_align.py` (oracle, known integer / long / sub-pixel shifts, flat → 0), '
                '`tests/test_pipeline.py::test_flow_follows_known_motion`'),
         golden='{align_hdrplus} (known shifts in `in_shifts`)',
@@ -403,10 +404,11 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         function=('`spikeref.align.align_tiles` and `align(..., noise=, correlation=)` with '
                   "`AlignParams(prefer_centre=3)` (the pipeline's default, `AlignParams()` keeps 0); "
                   '`spikeref.align_noise.estimate_noise`, `local_noise`, `estimate_noise_correlation`'),
-        oracle=('`oracles.align.align_tiles_oracle` with `prefer_centre > 0` (`noise_aware_search_oracle`: the zero '
-                'and centre rules written out; biases and thresholds as plain sums over each tile), '
-                '`local_noise_oracle`, `estimate_noise_oracle`, `estimate_noise_correlation_oracle`, '
-                '`level_noise_factors_oracle`'),
+        oracle=('`oracles.align.align_tiles_oracle` with `prefer_centre > 0` '
+                '(`oracles.align_search.noise_aware_search_oracle`: the zero and centre rules written out; biases and '
+                'thresholds as plain sums over each tile, `oracles.align_noise.bias_and_threshold_oracle`), '
+                '`oracles.align_noise.local_noise_oracle`, `estimate_noise_oracle`, '
+                '`estimate_noise_correlation_oracle`, `level_noise_factors_oracle`'),
         tests=('`tests/test_align.py` (kernels = oracle on twelve pairs, each at two pyramids and two steps: still '
                'and moving pairs with anti-correlated noise, noise estimated or given as a number or a map, ρ > 0, ρ '
                'clipped, unrelated images, whole-number counts with exact ties, no noise; estimators = oracles; '
@@ -435,10 +437,10 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
                   '`spikeref.align_noise.zero_motion_test`; '
                   '`AlignParams(refine="lk", smoothness=300, zero_test=2)` with `prefer_centre=3` = '
                   '`pipeline.default_align_params()` (`AlignParams()` keeps HDR+)'),
-        oracle=('`oracles.align.align_tiles_oracle` with `refine="lk"`, `smoothness > 0` (`lucas_kanade_oracle`, '
-                '`gradient_oracle`, `bilinear_oracle`, `tile_noise_oracle`, `regularise_oracle`; `sweeps=None` gives '
-                'the exact minimiser), `align_oracle` with `zero_test` (`zero_motion_test_oracle`, '
-                '`zero_motion_sums_oracle`)'),
+        oracle=('`oracles.align.align_tiles_oracle` with `refine="lk"`, `smoothness > 0` '
+                '(`oracles.align_refine.lucas_kanade_oracle`, `gradient_oracle`, `bilinear_oracle`, '
+                '`tile_noise_oracle`, `regularise_oracle`; `sweeps=None` gives the exact minimiser), `align_oracle` '
+                'with `zero_test` (`oracles.align_zero_test.zero_motion_test_oracle`, `zero_motion_sums_oracle`)'),
         tests=('`tests/test_align.py` (kernels = oracles on seven pairs at two steps — still, moving, an object on a '
                'still background with the zero test on the raw frames, half flat without noise; noise estimated, '
                "given, a map, `ρ` clipped —, the float64 kernels to 10⁻¹⁰, the Jacobi sweeps reach the energy's "
