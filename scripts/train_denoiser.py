@@ -112,12 +112,12 @@ def training_streams(data_dir: Path, real: bool = True, min_side: int = 0, stati
 
 
 def config(recipe: str, channels: int, steps: int, checkpoint_every: int, accumulate: str = "count",
-           lam_end: float | None = None, objective: str = "b2u"):
+           lam_end: float | None = None, objective: str = "b2u", exposure_channel: bool = False):
     from spikeref.denoise.train import TrainConfig
 
     more = {} if lam_end is None else {"lam_end": lam_end}
     return TrainConfig(width=channels, steps=steps, checkpoint_every=checkpoint_every, accumulate=accumulate,
-                       objective=objective, **RECIPES[recipe], **more)
+                       objective=objective, exposure_channel=exposure_channel, **RECIPES[recipe], **more)
 
 
 def probe(streams, steps: int, channels: int) -> dict:
@@ -163,6 +163,9 @@ def main() -> None:
                     help="b2u: the paper's Blind2Unblind loss (Eq. 10-12) on the moving scenes and real recordings; "
                          "pairs: Noise2Noise on the static twins of the simulated scenes (train_static_*.toml), "
                          "one window against the count of the planes it did not read (not in the paper)")
+    ap.add_argument("--exposure-channel", action="store_true",
+                    help="give the network a second input channel, log10 of the window's length in planes "
+                         "(TrainConfig.exposure_channel; not in the paper); the file name gains _exp")
     ap.add_argument("--device", choices=["cpu", "cuda"], default="cpu",
                     help="where to train (default cpu: every bundled network is a CPU run)")
     ap.add_argument("--minutes", type=float, default=None,
@@ -190,12 +193,15 @@ def main() -> None:
               + f"; paper / cpu = {per_step['paper'] / per_step['cpu']:.1f}×")
         return
     cfg = config(args.recipe, args.channels, args.steps, checkpoint_every=max(1, min(500, args.steps // 20)),
-                 accumulate=args.accumulate, lam_end=args.lam_end, objective=args.objective)
+                 accumulate=args.accumulate, lam_end=args.lam_end, objective=args.objective,
+                 exposure_channel=args.exposure_channel)
     args.out.mkdir(parents=True, exist_ok=True)
     output = args.out / (f"{args.objective}_w{args.channels}.npz" if args.recipe == "cpu"
                          else f"{args.objective}_paper_w{args.channels}.npz")
     if args.accumulate == "charge":
         output = output.with_name(output.stem + "_charge.npz")
+    if args.exposure_channel:
+        output = output.with_name(output.stem + "_exp.npz")
     command = "python scripts/train_denoiser.py " + " ".join(sys.argv[1:])
     describe = {"command": command, "recipe": args.recipe, "data": described}
     last = args.steps if args.stop_after is None else min(args.steps, args.stop_after)

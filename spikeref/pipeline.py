@@ -146,9 +146,9 @@ class _TimedNetwork:
     def __init__(self, net, rec: "Reconstructor"):
         self._net, self._rec = net, rec
 
-    def __call__(self, batch):
+    def __call__(self, batch, **kw):
         with self._rec.timed("network"):
-            return self._net(batch)
+            return self._net(batch, **kw)
 
     def __getattr__(self, name):
         if name in ("_net", "_rec"):  # not set yet (copy, pickle): no recursion

@@ -399,3 +399,35 @@ def test_the_training_script_refuses_a_missing_gpu_in_one_line(tmp_path):
     run = subprocess.run([sys.executable, str(script), "--minutes", "0", "--steps", "1", "--data-dir",
                           str(tmp_path / "data"), "--out", str(tmp_path / "out")], capture_output=True, text=True)
     assert run.returncode == 2 and "--minutes must be a positive number" in run.stderr
+
+
+def test_an_exposure_channel_run_trains_and_exports_a_two_channel_network(tmp_path):
+    """TrainConfig(exposure_channel=True): every image (and each masked copy of it) is given log10 of its
+    window as a second channel, and the exported NumPy network equals the torch one on that input."""
+    model = torch.nn.Conv2d(2, 1, 1, bias=False)
+    with torch.no_grad():
+        model.weight[:] = torch.tensor([0.0, 1.0]).reshape(1, 2, 1, 1)  # reads the level only
+    levels = torch.tensor([0.5, 2.0])
+    out = tr.WithExposure(model, levels)(torch.zeros((6, 1, 4, 4)))  # three masked copies of two images
+    np.testing.assert_allclose(out[:, 0, 0, 0].detach().numpy(), [0.5, 2.0] * 3)
+    streams = [SpikeStream.from_array(_static_stream(seed=6))]
+    cfg = tr.TrainConfig(width=8, depth=2, steps=12, batch=2, patch=16, lr=3e-3, window_min=5, window_max=20,
+                         objective="pairs", checkpoint_every=6, exposure_channel=True)
+    assert cfg.spec.in_channels == 2
+    tr.train(streams, tmp_path / "w.npz", cfg, device="cpu", progress=False)
+    net = UNet.load(tmp_path / "w.npz")
+    assert net.spec.in_channels == 2 and net.meta["exposure_channel"] == "log10(window)"
+    x = np.random.default_rng(1).random((3, 16, 16)).astype(np.float32) * 10
+    from spikeref.denoise.torch_unet import TorchUNet
+
+    twin = TorchUNet(net.spec)
+    twin.load_state_dict(torch.load(tmp_path / "w.npz.ckpt", weights_only=False)["model"])
+    t = torch.from_numpy(x)[:, None]
+    want = twin(torch.cat([t, torch.full_like(t, np.log10(30.0))], 1)).detach().numpy()[:, 0]
+    np.testing.assert_allclose(net(x, level=np.log10(30.0)), want, atol=2e-5)
+    blind = tr.TrainConfig(width=8, depth=2, steps=4, batch=2, patch=16, window_min=5, window_max=20,
+                           exposure_channel=True, checkpoint_every=4)
+    tr.train([SpikeStream.from_array(_spikes())], tmp_path / "b.npz", blind, device="cpu", progress=False)
+    assert UNet.load(tmp_path / "b.npz").spec.in_channels == 2  # the blind-spot loss runs with it too
+    with pytest.raises(TypeError, match="exposure_channel"):
+        tr.TrainConfig(exposure_channel=1)

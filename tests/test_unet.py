@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from spikeref.denoise._conv_alternatives import conv3x3_im2col, conv3x3_plain
 from spikeref.denoise.conv import conv3x3
-from spikeref.denoise.unet import UNet, UNetSpec, layer_shapes
+from spikeref.denoise.unet import UNet, UNetSpec, exposure_level, layer_shapes
 from spikeref.oracles.unet import conv3x3_oracle, unet_forward_oracle
 
 GOLDEN = Path(__file__).resolve().parents[1] / "golden" / "unet_forward.npz"
@@ -301,3 +301,40 @@ def test_bad_weights_and_inputs_are_refused(tmp_path):
     np.savez(bad, format=np.array("other"))
     with pytest.raises(ValueError, match="format"):
         UNet.load(bad)
+
+
+def test_an_exposure_channel_network_reads_a_constant_second_channel(tmp_path):
+    """UNetSpec(in_channels=2): the fast forward, the oracle and the network on a hand-made two-channel input
+    agree; the level is required, a one-channel network refuses it, and the file keeps the channel count."""
+    spec = UNetSpec(width=8, depth=3, in_channels=2)
+    net = UNet.random(spec, seed=4)
+    x = np.random.default_rng(5).random((2, 20, 27)).astype(np.float32) * 8
+    level = exposure_level(40)
+    assert level == pytest.approx(np.log10(40))
+    out = net(x, level=level)
+    np.testing.assert_allclose(out, unet_forward_oracle(net.params, x, depth=3, level=level), atol=2e-5)
+    assert not np.allclose(out, net(x, level=exposure_level(5)), atol=1e-3)  # the channel is read
+    # the same as a one-channel-weights view of it when the level's weights are zero
+    zeroed = dict(net.params)
+    zeroed["head0.weight"] = net.params["head0.weight"].copy()
+    zeroed["head0.weight"][:, 1] = 0.0
+    one = dict(zeroed, **{"head0.weight": zeroed["head0.weight"][:, :1].copy()})
+    np.testing.assert_allclose(UNet.from_params(zeroed)(x, level=3.0), UNet.from_params(one)(x), atol=1e-6)
+    assert UNet.from_params(zeroed).spec.in_channels == 2 and layer_shapes(spec)["head0"] == (2, 8)
+    with pytest.raises(ValueError, match="exposure channel"):
+        net(x)
+    with pytest.raises(ValueError, match="finite"):
+        net(x, level=float("nan"))
+    with pytest.raises(ValueError, match="level= is for"):
+        UNet.random(UNetSpec(width=8, depth=3))(x, level=1.0)
+    with pytest.raises(ValueError, match="in_channels"):
+        UNetSpec(in_channels=3)
+    with pytest.raises(ValueError, match="positive"):
+        exposure_level(0)
+    net.save(tmp_path / "e.npz")
+    again = UNet.load(tmp_path / "e.npz")
+    assert again.spec == spec
+    np.testing.assert_array_equal(again(x, level=level), out)
+    UNet.random(UNetSpec(width=8, depth=3), seed=1).save(tmp_path / "one.npz")
+    with np.load(tmp_path / "one.npz") as z:
+        assert "in_channels" not in z.files  # one-channel files stay as they were

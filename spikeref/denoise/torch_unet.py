@@ -19,7 +19,11 @@ __all__ = ["TorchUNet", "export_params", "to_numpy_unet"]
 
 
 class TorchUNet(nn.Module):
-    """``f_θ`` for training: ``(N, 1, H, W)`` rates → ``(N, 1, H, W)``, ``H, W`` multiples of ``2**depth``."""
+    """``f_θ`` for training: ``(N, C_in, H, W)`` → ``(N, 1, H, W)``, ``H, W`` multiples of ``2**depth``.
+
+    ``C_in`` is ``spec.in_channels``: the image, then (with 2) the exposure channel
+    (:func:`spikeref.denoise.unet.exposure_level`, constant over the image).
+    """
 
     def __init__(self, spec: UNetSpec | None = None):
         super().__init__()
@@ -40,8 +44,9 @@ class TorchUNet(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         m = self.spec.multiple
-        if x.ndim != 4 or x.shape[1] != 1 or x.shape[2] % m or x.shape[3] % m:
-            raise ValueError(f"input must be (N, 1, H, W) with H, W multiples of {m}; got {tuple(x.shape)}")
+        c = self.spec.in_channels
+        if x.ndim != 4 or x.shape[1] != c or x.shape[2] % m or x.shape[3] % m:
+            raise ValueError(f"input must be (N, {c}, H, W) with H, W multiples of {m}; got {tuple(x.shape)}")
         x = self._conv("head1", self._conv("head0", x))
         skips = [x]
         for k in range(1, self.spec.depth + 1):

@@ -2,8 +2,10 @@
 
 Format ``"spikeref-unet-1"``: ``format``, ``width``, ``depth``, ``negative_slope``, for each layer
 ``<name>.weight`` ``(out, in, 3, 3) float32`` and ``<name>.bias`` ``(out,) float32`` (PyTorch's
-layout), and ``meta`` (a JSON string: how the weights were made).  Which layers a network of a
-given shape has, and their shapes, is checked by :class:`~spikeref.denoise.unet.UNet`.
+layout), and ``meta`` (a JSON string: how the weights were made); ``in_channels`` (2) only in the file
+of a network with an exposure channel (:attr:`spikeref.denoise.unet.UNetSpec.in_channels`; absent
+means 1).  Which layers a network of a given shape has, and their shapes, is checked by
+:class:`~spikeref.denoise.unet.UNet`.
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ def read_unet_weights(path) -> tuple[dict, dict[str, np.ndarray], dict]:
                  "negative_slope": float(data.pop("negative_slope"))}
     except KeyError as exc:
         raise ValueError(f"{path}: lacks {exc.args[0]!r}") from None
+    if "in_channels" in data:  # only networks with an exposure channel write it
+        shape["in_channels"] = int(data.pop("in_channels"))
     meta = json.loads(str(data.pop("meta", "{}")))
     return shape, data, meta
 
@@ -54,6 +58,7 @@ def write_unet_weights(path, shape: dict, arrays: dict[str, np.ndarray], meta: d
     members = {
         "format": np.array(WEIGHTS_FORMAT), "width": np.array(shape["width"]), "depth": np.array(shape["depth"]),
         "negative_slope": np.array(shape["negative_slope"]), "meta": np.array(json.dumps(meta, sort_keys=True)),
+        **({"in_channels": np.array(shape["in_channels"])} if shape.get("in_channels", 1) != 1 else {}),
         **arrays,
     }
 

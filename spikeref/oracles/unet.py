@@ -59,11 +59,17 @@ def _upsample_nearest(x):
     return out
 
 
-def unet_forward_oracle(params: dict, images: np.ndarray, depth: int = 5, slope: float = 0.1) -> np.ndarray:
-    """``f_θ(images)`` for ``(N, H, W)`` images: reflect-pad bottom/right to ``2**depth``, run, crop."""
+def unet_forward_oracle(params: dict, images: np.ndarray, depth: int = 5, slope: float = 0.1,
+                        level: float | None = None) -> np.ndarray:
+    """``f_θ(images)`` for ``(N, H, W)`` images: reflect-pad bottom/right to ``2**depth``, run, crop.
+
+    ``level``: for weights whose ``head0`` reads two channels, the exposure channel's value, a constant
+    second channel over the padded image."""
     n, h, w = images.shape
     m = 2**depth
     x = np.pad(images.astype(np.float32), ((0, 0), (0, (-h) % m), (0, (-w) % m)), mode="reflect")[:, None]
+    if np.asarray(params["head0.weight"]).shape[1] == 2:
+        x = np.concatenate([x, np.full_like(x, np.float32(level))], axis=1)
     x = _conv(params, "head0", x, slope)
     x = _conv(params, "head1", x, slope)
     skips = [x]
