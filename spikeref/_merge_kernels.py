@@ -110,7 +110,7 @@ def workspace_size(n_core: int, n_shell: int, nc: int, h: int, w: int) -> int:
 
 @njit(parallel=True)
 def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell_idx, box, z0, clip, iterations,
-                        safety, noise_floor, work, est, windows):
+                        safety, noise_floor, window, work, est, windows):
     """:func:`spikeref.merge.robust_merge` (its module doc) on checked arrays.
 
     ``s`` ``(n, C, h, w)`` float32 or float64, ``base`` ``(n, h, w)`` and ``v`` ``(C, h, w)`` float64;
@@ -237,8 +237,10 @@ def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell
             _box_sum(resid[c], rad, tmp, cum)
             for y in range(h):
                 for x in range(w):
-                    v_hat[c, y, x] = max((tmp[y, x] / m[y, x]) / max(dof_box[y, x] / m[y, x], 1e-12),
-                                         noise_floor * v[c, y, x])
+                    floor = noise_floor * v[c, y, x]
+                    if window > 0.0:  # in full up to one spike a window, then as 1 / (p W)
+                        floor /= max(1.0, est[c, y, x] * window)
+                    v_hat[c, y, x] = max((tmp[y, x] / m[y, x]) / max(dof_box[y, x] / m[y, x], 1e-12), floor)
     for si in range(n_shells):
         sh = shell_idx[shell_start[si]:shell_start[si + 1]]
         ns = sh.size

@@ -47,7 +47,8 @@ bias: over the box, the planes and its passing windows, the mean of ``min((s_j �
 at 0, where ``û_j = v̂ + v̂ Σω²/(Σω)²`` measures the noise by how the **core** windows scatter about their merge,
 ``v̂ = max(box(Σ_core ω_j min((s_j − e)², κ² v c_j)) / box(Σ_core ω_j c_j), φ v)``, ``c_j = 1 − 2a_j + Σa²`` (the
 variance of ``s_j − e`` in units of ``v``; the same truncation on both sides), never under ``φ`` times the model's
-noise (``φ`` = :attr:`MergeParams.noise_floor`, 1).  A shell is so judged by how much worse than the
+noise (``φ`` = :attr:`MergeParams.noise_floor`, 1; with :attr:`MergeParams.window` ``W > 0``,
+``φ v / max(1, e W)``: in full up to one spike a window).  A shell is so judged by how much worse than the
 core it agrees with the merge, whatever the noise model misses (the fixed pattern and the resampling in Immerkær's
 estimate make ``v`` too large on bright textured content, which hid the drift of chained flows on rotation and
 zoom), and at least what the model says: in low light the core windows share their inter-spike intervals (a
@@ -100,6 +101,12 @@ class MergeParams:
     noise_floor : float
         ``φ``: the core's scatter ``v̂`` a shell is judged against is at least ``φ v`` (the noise model); 0 judges
         by the scatter alone (the rule until 2026-11-28).
+    window : float
+        ``W``, the readouts (planes) each sample's window integrates, or 0 (default: not said).  With ``W > 0`` the
+        floor is ``φ v / max(1, e W)``: in full where the merge's rate ``e`` gives at most one spike a window,
+        falling as ``1/(e W)`` above — the floor is for window charges that share inter-spike intervals, which
+        they do only where spikes are sparse (the pipeline passes its window; ``docs/results.md``, "The adaptive
+        merge as the default").
     """
 
     box: int = 5
@@ -109,6 +116,7 @@ class MergeParams:
     shells: tuple = ()
     safety: float = 4.0
     noise_floor: float = 1.0
+    window: float = 0.0
 
     def __post_init__(self):
         if whole_number(self.box, "box", 1, "an odd whole number ≥ 1") % 2 == 0:
@@ -117,6 +125,7 @@ class MergeParams:
         for name in ("z", "clip", "safety"):
             finite_number(getattr(self, name), name, positive=True)
         finite_number(self.noise_floor, "noise_floor")
+        finite_number(self.window, "window")
         shells = tuple(tuple(int(b) for b in sh) for sh in self.shells)
         last = 0
         for lo, hi in shells:
@@ -236,5 +245,5 @@ def _robust_merge(s: np.ndarray, base: np.ndarray, v: np.ndarray, reference: int
                         np.ascontiguousarray(v, dtype=np.float64), reference, idx,
                         int(np.flatnonzero(idx == reference)[0]), shell_start, shell_idx, int(params.box),
                         float(params.z), float(params.clip), int(params.iterations), float(params.safety),
-                        float(params.noise_floor), work, est, windows)
+                        float(params.noise_floor), float(params.window), work, est, windows)
     return np.clip(est, 0.0, 1.0).astype(np.float32), windows.astype(np.float32)

@@ -343,7 +343,8 @@ class FrameRings:
         with self.timed("warp"):
             reference = counts[reach].astype(np.float64) / p.window
             noise = np.stack([local_noise(plane) for plane in reference])
-            est, windows = robust_merge(samples, weights, noise, offset + reach, core, MergeParams(shells=shells),
+            est, windows = robust_merge(samples, weights, noise, offset + reach, core,
+                                        MergeParams(shells=shells, window=float(p.window)),
                                         check=False)
         self.merge_windows[k] = windows
         return est

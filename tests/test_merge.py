@@ -20,8 +20,9 @@ def _windows(n, sigma, seed, h=16, w=18):
 
 
 @settings(max_examples=12, deadline=None)
-@given(st.integers(0, 2 ** 31 - 1), st.integers(1, 2), st.sampled_from([1, 3, 5]), st.booleans())
-def test_the_merge_is_its_oracle(seed, half, box, shells):
+@given(st.integers(0, 2 ** 31 - 1), st.integers(1, 2), st.sampled_from([1, 3, 5]), st.booleans(),
+       st.sampled_from([0.0, 3.0, 10.0]))
+def test_the_merge_is_its_oracle(seed, half, box, shells, window):
     rng = np.random.default_rng(seed)
     n, h, w = 2 * (half + 2) + 1, 6, 7
     samples = (0.3 + rng.normal(0, 0.05, size=(n, 4, h, w)) + (rng.random((n, 1, 1, 1)) < 0.3) * 0.3)
@@ -29,7 +30,8 @@ def test_the_merge_is_its_oracle(seed, half, box, shells):
     noise = rng.uniform(0.5, 2.0, size=(4, h, w)) * 0.05 ** 2
     ref = n // 2
     core = np.abs(np.arange(n) - ref) <= half
-    params = MergeParams(box=box, shells=((half + 1, half + 1), (half + 2, half + 2)) if shells else ())
+    params = MergeParams(box=box, shells=((half + 1, half + 1), (half + 2, half + 2)) if shells else (),
+                         window=window)
     est, windows = robust_merge(samples, weights, noise, ref, core, params)
     want, want_windows = robust_merge_oracle(samples, weights, noise, ref, core, params)
     np.testing.assert_allclose(est, want, rtol=1e-5, atol=1e-6)
@@ -78,6 +80,30 @@ def test_the_support_grows_where_the_scene_holds_still_and_not_where_it_moves():
     truth = _scene(16, 24)[None]
     err = lambda e: float(np.mean((e - truth)[:, :, 14:] ** 2))  # noqa: E731
     assert err(est) < 0.75 * err(robust)  # static: more windows, less noise (21 against 7 at most)
+
+
+def test_the_window_keeps_the_floor_up_to_one_spike_a_window_and_lowers_it_above():
+    """MergeParams.window = W: the shells' noise floor φ v in full where the merge gives at most one spike a
+    window (a window W so short that e W ≤ 1 everywhere is the plain floor), φ v / (e W) above (so a very long
+    window is no floor at all, as φ = 0)."""
+    rng = np.random.default_rng(3)
+    samples = _windows(21, 0.03, 5)
+    samples[:3, :, 4:12, 4:12] += 0.05  # far windows a little off: the shells' test has something to weigh
+    weights = np.ones((21, 16, 18))
+    noise = np.full((4, 16, 18), 0.03 ** 2) * rng.uniform(1.0, 2.0, (4, 16, 18))  # the model above the scatter
+    core = np.abs(np.arange(21) - 10) <= 3
+    shells = default_shells(3, 10)
+
+    def merge(**kw):
+        return robust_merge(samples, weights, noise, 10, core, MergeParams(shells=shells, **kw))
+
+    plain, short, none_, long_ = merge(), merge(window=0.5), merge(noise_floor=0.0), merge(window=1e9)
+    for a, b in ((plain, short), (none_, long_)):
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])
+    assert not np.array_equal(plain[1], none_[1])  # the floor matters on this input
+    with pytest.raises(ValueError, match="window"):
+        MergeParams(window=-1.0)
 
 
 def test_default_shells_and_parameters():

@@ -537,8 +537,8 @@ def test_the_timed_network_is_the_same_denoiser(sample):
     assert den.unet is not rec._denoise  # the caller's denoiser is left as it was
     assert type(den.unet).__name__ == "UNet"
     # a network told the exposure (UNetSpec.in_channels = 2) gets it through the timing wrapper too
-    exp = Denoiser(UNet(UNetSpec(width=8, depth=3, in_channels=2),
-                        UNet.random(UNetSpec(width=8, depth=3, in_channels=2), seed=2).params, {"input_domain": "count"}))
+    spec = UNetSpec(width=8, depth=3, in_channels=2)
+    exp = Denoiser(UNet(spec, UNet.random(spec, seed=2).params, {"input_domain": "count"}))
     rec = Reconstructor(sample, ReconstructParams(L=0, accumulate="count"), exp)
     (frame,) = list(rec.frames(5, 6))
     direct = demosaic_bilinear(bayer_mosaic(exp(planes, "visible", window=10.0)), sample.cfa)

@@ -167,16 +167,19 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
                 '[spec](spec/pipeline.md#pipeline_frames_charge))'),
     ),
     AuditRow(
-        equation="— (not in the paper; §4.2's pseudo-long exposure, merged robustly; an option)",
+        equation="— (not in the paper; §4.2's pseudo-long exposure, merged robustly; the default on window charges)",
         what=("the robust merge: each aligned window weighed by `r = clip(2 − z/z₀, 0, 1)` of a clipped χ² of its "
               "difference to the merge over a 5×5 box, beyond the noise; the adaptive support: shells of windows "
               "beyond Eq. 14–15's, reached by chaining step-0 flows, taken where `λ b² share² <` the variance they "
-              "remove ([spec](spec/merge.md#robust_merge))"),
+              "remove, the bias judged against the core's scatter floored at `φ v / max(1, e W)` "
+              "([spec](spec/merge.md#robust_merge))"),
         function=('`spikeref.merge.robust_merge`; `spikeref.compose.composed_samples`, `chained_samples`; '
-                  '`ReconstructParams(merge="robust" | "adaptive", support=20)`'),
+                  '`ReconstructParams(merge="auto" | "robust" | "adaptive", support=10)` (the pipeline passes '
+                  '`MergeParams(window=W)`)'),
         oracle='`oracles.merge.robust_merge_oracle` (pixel by pixel)',
         tests=('`tests/test_merge.py` (oracle by hypothesis, an occluder dropped, a static scene grown, shells refused '
-               'where a far window differs), `tests/test_compose.py` (the samples against `composed_warp`), '
+               'where a far window differs, the floor in full up to one spike a window), `tests/test_compose.py` '
+               '(the samples against `composed_warp`), '
                '`tests/test_pipeline.py` (the pipeline\'s merges)'),
         golden="{robust_merge}",
     ),

@@ -99,8 +99,11 @@ def robust_merge_oracle(samples, weights, noise, reference, core, params):
     for c in range(nc):
         for y in range(h):
             for x in range(w):
-                v_hat[c, y, x] = max(_box(resid[c], y, x, p.box) / max(_box(dof, y, x, p.box), 1e-12),
-                                     p.noise_floor * v[c, y, x])
+                # the floor phi v, in full where the merge's rate p gives at most one spike a window (p W <= 1),
+                # falling as 1 / (p W) above (window = W; 0: in full everywhere)
+                spikes = est[c, y, x] * p.window
+                floor = p.noise_floor * v[c, y, x] / (max(1.0, spikes) if p.window > 0 else 1.0)
+                v_hat[c, y, x] = max(_box(resid[c], y, x, p.box) / max(_box(dof, y, x, p.box), 1e-12), floor)
     vbar = v.mean(axis=0)
     alive = np.ones((h, w), bool)
     dist = np.abs(np.arange(n) - reference)
@@ -175,8 +178,9 @@ def _inputs_merge():
 
 def _merge_outputs(i, merge, params_cls):
     out = {}
-    for name, shells in (("robust", ()), ("adaptive", ((3, 3), (4, 4)))):
-        params = params_cls(shells=shells)
+    for name, shells, window in (("robust", (), 0.0), ("adaptive", ((3, 3), (4, 4)), 0.0),
+                                       ("adaptive_floor", ((3, 3), (4, 4)), 10.0)):
+        params = params_cls(shells=shells, window=window)
         est, windows = merge(i["samples"], i["weights"], i["noise"], int(i["reference"]), i["core"], params)
         out[f"estimate_{name}"] = np.asarray(est, np.float64)
         out[f"windows_{name}"] = np.asarray(windows, np.float64)
@@ -186,9 +190,9 @@ def _merge_outputs(i, merge, params_cls):
 class _Params:
     """The defaults of :class:`spikeref.merge.MergeParams`, restated (an oracle module imports no fast code)."""
 
-    def __init__(self, shells=()):
+    def __init__(self, shells=(), window=0.0):
         self.box, self.z, self.clip, self.iterations, self.shells, self.safety = 5, 3.0, 3.0, 2, shells, 4.0
-        self.noise_floor = 1.0
+        self.noise_floor, self.window = 1.0, window
 
 
 GOLDEN_CASES = (
@@ -200,11 +204,14 @@ GOLDEN_CASES = (
         "five with Eq. 14–15-like weights 1, 2, 3, 2, 1 (window 2 outside the plane at a corner), an occluder in "
         "core window 3 and part of core window 6, far window 0 offset everywhere: the robust merge of the core "
         "(estimate_robust, windows_robust) and with the shells |j − k| = 3 and 4 offered (estimate_adaptive, "
-        "windows_adaptive). The oracle computes in float64 pixel by pixel, the fast function returns float32.",
+        "windows_adaptive), and the same with the shells' noise floor falling above one spike a window of W = 10 "
+        "readouts (estimate_adaptive_floor, windows_adaptive_floor; the pipeline's rule). The oracle computes in "
+        "float64 pixel by pixel, the fast function returns float32.",
         _inputs_merge, lambda i: _merge_outputs(i, robust_merge_oracle, _Params),
         rtol=1e-5, atol=1e-6,
         params={"box": 5, "z": 3.0, "clip": 3.0, "iterations": 2, "safety": 4.0,
-                "shells_adaptive": "(3, 3), (4, 4)", "box_edges": "the mean of the box's pixels inside the plane"},
+                "shells_adaptive": "(3, 3), (4, 4)", "noise_floor": 1.0, "window_adaptive_floor": 10.0,
+                "box_edges": "the mean of the box's pixels inside the plane"},
         spec="docs/spec/merge.md#robust_merge",
         outputs=_merge_outputs,
     ),
