@@ -48,7 +48,7 @@ Beyond the paper (the defaults of :class:`ReconstructParams`, each measured on t
   HDR+ search) turns on the noise-aware search of :mod:`spikeref.align`; the pipeline tells it
   the noise of ``I_l``, measured on the 2×2 luma of the frames before denoising (variance map
   and the correlation of the two frames' noise — adjacent windows' counts are
-  anti-correlated), whatever the flow is estimated on (``_State.noise_aware_flow``).
+  anti-correlated), whatever the flow is estimated on (:meth:`spikeref.pipeline_rings.FrameRings.noise_aware_flow`).
 * A :class:`~spikeref.denoise.denoiser.Denoiser` with its guard on (the default,
   :mod:`spikeref.denoise.guard`) is guarded for the output ``D(I_L)`` only; frames that are
   only aligned are denoised without it.

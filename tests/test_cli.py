@@ -774,3 +774,19 @@ def test_every_option_of_reconstruct_denoise_and_bench_is_in_docs_options():
             if not any(f"`{f}" in text for f in flags):
                 missing.append(f"{name} {flags[0]}")
     assert not missing, missing
+
+
+def test_help_loads_no_numba_kernel():
+    """``spikeref --help`` and every command's parser answer without importing Numba or a kernel module
+    (docs/architecture.md: application modules import what a command runs inside the function that runs it)."""
+    import subprocess
+    import sys
+
+    from spikeref.cli.noise_check import NOISE_CHECK_WINDOWS
+    from spikeref.noise_check import DEFAULT_WINDOWS
+
+    assert NOISE_CHECK_WINDOWS == DEFAULT_WINDOWS  # restated for the parser
+    code = ("import sys\nfrom spikeref.cli.parser import build_parser\nbuild_parser()\n"
+            "print(sorted(m for m in sys.modules if m == 'numba' or m.startswith('numba.') or 'kernels' in m))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out

@@ -12,7 +12,7 @@ from spikeref.cli.errors import CliError, output_phase
 from spikeref.cli.inputs import add_input_options, open_input
 from spikeref.cli.outputs import check_output_file
 
-__all__ = ["cmd_noise_check", "add_parser"]
+__all__ = ["cmd_noise_check", "add_parser", "NOISE_CHECK_WINDOWS"]
 
 
 def cmd_noise_check(args) -> int:
@@ -47,11 +47,14 @@ def cmd_noise_check(args) -> int:
     return 0
 
 
+#: :data:`spikeref.noise_check.DEFAULT_WINDOWS`, restated so that ``--help`` loads no Numba kernel (a test holds
+#: the two equal).
+NOISE_CHECK_WINDOWS = (5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000)
+
+
 def add_parser(sub) -> list[argparse.ArgumentParser]:
     """Add ``spikeref noise-check`` and its options to ``sub``, the commands' sub-parsers; return the parsers
     made (:func:`spikeref.cli.parser.build_parser` gives each ``--debug``)."""
-    from spikeref.noise_check import DEFAULT_WINDOWS
-
     p = sub.add_parser("noise-check", help="Fig. 4a: noise ratio per Bayer channel against the window W",
                        description="On a static recording, accumulate windows of W planes (Eq. 4) and report "
                                    "the noise ratio I_c / E[I_c] - 1 per channel (R, G, B; the two G planes "
@@ -60,7 +63,7 @@ def add_parser(sub) -> list[argparse.ArgumentParser]:
                                    "window). Pixels with fewer than 20 spikes in the span are left out.",
                        formatter_class=DefaultsHelpFormatter)
     add_input_options(p, optional_file=True)
-    p.add_argument("--windows", type=int_list, default=DEFAULT_WINDOWS,
+    p.add_argument("--windows", type=int_list, default=NOISE_CHECK_WINDOWS,
                    help="window lengths W in planes, comma-separated (5 planes = 0.25 ms at 20 kHz)")
     p.add_argument("--start", type=int, default=0, help="first plane of the analysed span")
     p.add_argument("--planes", type=int, default=None, help="planes in the span (default: to the end)")
