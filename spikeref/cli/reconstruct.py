@@ -7,6 +7,7 @@ import argparse
 import errno
 import importlib.util
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from spikeref.cli import weights
@@ -94,10 +95,7 @@ def cmd_reconstruct(args) -> int:
     if args.merge is not None:
         chosen["merge"] = args.merge
     if args.support is not None:
-        if args.merge in ("binomial", "robust"):
-            raise CliError("--support applies to --merge adaptive (the default on window charges)")
         check_int(args.support, "--support", 1, "a positive number of windows")
-        chosen["support"] = args.support
     hot_map = hot_pixel_option(args.hot_pixels)
     if args.hot_pixels is not None:  # a map replaces the search; auto/off as given (the paper's preset: off)
         chosen["hot_pixels"] = "off" if hot_map is not None else args.hot_pixels
@@ -107,10 +105,13 @@ def cmd_reconstruct(args) -> int:
         raise CliError(f"-K must be odd (the reference is the middle window); got {args.K}")
     params = ReconstructParams.preset(preset, window=args.window, K=args.K, L=args.L, align=not args.no_align,
                                       **chosen)
-    if args.support is not None and params.merge_used != "adaptive":
-        raise CliError(f"--support applies to the adaptive merge; this run merges with the {params.merge_used} "
-                       f"merge ({'--accumulate count' if params.accumulate == 'count' else 'its warp or preset'} "
-                       f"makes it so: add --merge adaptive, or leave out --support)")
+    if args.support is not None:  # one check, whatever chose the merge
+        if params.merge_used != "adaptive":
+            why = (f"--merge {args.merge}" if args.merge else f"--preset {preset}" if preset != "default"
+                   else "--accumulate count" if params.accumulate == "count" else f"--warp {params.warp}")
+            raise CliError(f"--support applies to the adaptive merge; this run merges with the {params.merge_used} "
+                           f"merge ({why} makes it so: add --merge adaptive, or leave out --support)")
+        params = replace(params, support=args.support)
     if not params.denoise:
         given = [flag for flag, on in (("--weights", args.weights is not None), ("--guard", args.guard is not None),
                                        ("--no-shrink", args.no_shrink)) if on]

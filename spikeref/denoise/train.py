@@ -69,7 +69,7 @@ from spikeref.charge import ACCUMULATE, DEFAULT_MARGIN, window_charge
 from spikeref.denoise.blindspot import FILL_KERNEL, cell_masks
 from spikeref.denoise.revisible import lambda_schedule, revisible_loss_torch
 from spikeref.denoise.torch_unet import TorchUNet, to_numpy_unet
-from spikeref.denoise.unet import UNetSpec
+from spikeref.denoise.unet import UNetSpec, exposure_level
 from spikeref.io.atomic import atomic_write
 
 #: What the network can be trained on (:attr:`TrainConfig.input_domain`).
@@ -190,7 +190,7 @@ class TrainConfig:
             raise ValueError(f"masks_per_step ({self.masks_per_step}) must be ≤ cell² = {self.cell**2}")
         if not isinstance(self.exposure_channel, bool):
             raise TypeError(f"exposure_channel must be True or False; got {self.exposure_channel!r}")
-        UNetSpec(width=self.width, depth=self.depth, in_channels=2 if self.exposure_channel else 1)  # validates
+        _ = self.spec  # validates the shape
 
     @property
     def spec(self) -> UNetSpec:
@@ -485,8 +485,9 @@ def train_step(model, opt, sampler: CropSampler, rng: np.random.Generator, cfg: 
     # on counts each image's terms are divided by W: count-domain errors grow with W, their noise does
     # not; 1/W sits between the two so that no octave of W swamps the gradient
     s = windows.rsqrt()[:, None, None, None] if cfg.input_domain == "count" else 1.0
-    if cfg.exposure_channel:  # log10 W, as spikeref.denoise.unet.exposure_level
-        model = WithExposure(model, torch.log10(windows))
+    if cfg.exposure_channel:
+        levels = [exposure_level(w) for w in windows.tolist()]
+        model = WithExposure(model, torch.tensor(levels, dtype=windows.dtype, device=windows.device))
     if cfg.objective == "pairs":
         out = model(x.contiguous(memory_format=torch.channels_last)).contiguous()
         loss = torch.mean(((out - target) * s) ** 2)
