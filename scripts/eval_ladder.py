@@ -7,6 +7,11 @@ seed 11) were fixed before any tuning and are never used to choose a parameter. 
 RGB against the exact ground truth of the 10-plane window.
 
     python scripts/eval_ladder.py [--frames 4] [--out held_out_ladder.md] [--png held_out_ladder.png]
+    python scripts/eval_ladder.py --set bench --support 20 --rungs true_flow_support,limit
+
+``--set bench`` runs the benchmark scenes instead (seed 0, as ``spikeref bench --ladder``); ``--support`` sets
+``ReconstructParams.support`` for the method's rungs and the ``true_flow_support`` rung; ``--rungs`` runs only
+those rungs (the table beside the ladder needs ``ours`` and ``limit``).
 
 Prints the ladder and, for W/K/L = 10/3/3, ours − TFP(W=100), ours − BM3D on one window and
 ours − the limit (means over the scenes).
@@ -38,17 +43,33 @@ def main() -> None:
     ap.add_argument("--accumulate", choices=("count", "charge"), default=None,
                     help="ReconstructParams.accumulate of the method's rungs (default: the package's default)")
     ap.add_argument("--weights", default=None, help="denoiser weights (.npz or a bundled name; default bundled)")
+    ap.add_argument("--set", choices=("heldout", "bench"), default="heldout",
+                    help="the held-out scenes (default, seed 11) or the benchmark scenes (seed 0)")
+    ap.add_argument("--support", type=int, default=None,
+                    help="ReconstructParams.support of the method's rungs and of the true_flow_support rung")
+    ap.add_argument("--rungs", default=None, help="comma-separated rungs to run (default: all)")
     args = ap.parse_args()
+    from spikeref.bench.ladder import RUNGS
     from spikeref.denoise.denoiser import Denoiser
 
-    scenes = [load_bench_scene(p) for p in sorted(SCENES.glob("*.toml"))]
-    params = {"accumulate": args.accumulate} if args.accumulate else None
-    res = run_ladder(scenes, seed=SEED, frames=args.frames, params=params,
+    folder, seed = (SCENES, SEED) if args.set == "heldout" else (ROOT / "spikeref" / "bench" / "scenes", 0)
+    scenes = [load_bench_scene(p) for p in sorted(folder.glob("*.toml"))]
+    params = {"accumulate": args.accumulate} if args.accumulate else {}
+    if args.support is not None:
+        params["support"] = args.support
+    rungs = RUNGS if args.rungs is None else tuple(r.strip() for r in args.rungs.split(","))
+    res = run_ladder(scenes, seed=seed, frames=args.frames, params=params or None, rungs=rungs,
                      denoiser=Denoiser.load(args.weights) if args.weights else None)
+    if not {"ours", "limit"} <= set(res["rungs"]):
+        text = ladder_markdown(res)
+        print(text)
+        if args.out:
+            args.out.write_text(text)
+        return
     # TFP(W=100) beside the ladder: the paper's Table 1 reference
     tfp100 = {}
     for sc in scenes:
-        sc.simulate(SEED)
+        sc.simulate(seed)
         scores = []
         for t in score_centres(len(sc.stream), args.frames):
             ref = sc.reference(t)

@@ -138,3 +138,28 @@ def test_cli_ladder_bad_options(tmp_path, capsys, argv, match):
     assert main(["bench", "--ladder", *argv, "--out", str(out), "--no-progress"]) == 2
     assert match in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_support_rung_merges_every_visible_window(small_ladder):
+    """The ±support rung (every window the 120-plane recording has, equal weights, where visible) is above Eq.
+    14–15's seven binomially weighted windows at the exact flow, and under the limit."""
+    rows = {r["rung"]: r for r in small_ladder["rows"]}
+    assert rows["true_flow"]["psnr"] + 0.5 < rows["true_flow_support"]["psnr"] < rows["limit"]["psnr"]
+
+
+def test_support_rung_drops_what_the_exact_motion_hides():
+    """``visible_only``: a window whose every sample is hidden adds nothing, whatever its values."""
+    from spikeref.bench.ladder import true_flow_frame
+
+    class Hidden:  # zero motion, nothing visible at any other time
+        height, width = 12, 16
+
+        def true_flow(self, t_ref, t_other, points):
+            return np.zeros_like(points), np.zeros(points.shape[:-1], bool)
+
+    counts = np.zeros((3, 4, 6, 8), np.float32)
+    counts[1] = 5.0  # the reference window: rate 0.5
+    counts[[0, 2]] = 9.0  # hidden windows
+    kept = true_flow_frame(counts, Hidden(), 10, 0, 1, np.ones(3), visible_only=True)
+    mixed = true_flow_frame(counts, Hidden(), 10, 0, 1, np.ones(3))
+    assert np.allclose(kept, 0.5) and np.allclose(mixed, (0.5 + 0.9 + 0.9) / 3)

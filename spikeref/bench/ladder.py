@@ -6,45 +6,51 @@ in every way below, from the bottom up, and scores each against the exact ground
 10-plane window at that instant (PSNR and SSIM with the reference's maximum as data range,
 linear RGB after Ψ, as ``spikeref bench``):
 
-==================  ==============================================================================
-rung                what it is
-==================  ==============================================================================
-``tfp``             TFP over the ``W`` planes of the window: Eq. 4, then Ψ
-``bm3d``, ``nlm``   the classical peer a user would run on that one window instead: BM3D / non-local
-                    means on each Bayer plane of Eq. 4's rates, σ estimated blind (the ``peers`` extra)
-``net``             our denoiser on that one window: ``Ψ[D(I_0)]`` (the method at ``L = 0``, on what
-                    the method's windows give: the charge by default)
-``tfp_support``     TFP over the whole support ``((K−1)L+1)·W`` planes, equal weights, no motion
-``no_align``        the method with zero flow (plain accumulation with Eq. 14–15's weights, then D)
-``no_denoiser``     the method with the identity for ``D`` (flows estimated on the raw frames)
-``paper``           the paper's procedure exactly: Fig. 3(b) on Eq. 4's counts with Eq. 14–15 step by
-                    step, the plain alignment, the count network's ``D(I)`` without guard or shrinkage
-``ours``            the method as this package runs it by default (:class:`~spikeref.pipeline.ReconstructParams`)
-``true_flow``       the support warped by the scene's exact motion: every window's Bayer planes (of
-                    what the method's windows give) resampled once (cubic) onto the reference window,
-                    weighted by Eq. 14–15's binomial weights, no denoiser — what perfect alignment
-                    would give
-``true_flow_d``     the same, then our denoiser (told the exposure of ``I_L``, and as the pipeline
-                    does for charges, the reference window for its noise)
-``true_flow_bm3d``  the same, then BM3D on each Bayer plane (σ estimated blind): the classical peer
-                    after a perfect merge
-``true_flow_clean`` the same warp and weights on the *noise-free* windows (the exact ground truth of
-                    each window's ``W`` planes, mosaicked): between it and ``true_flow`` is the noise left
-                    after the merge; between it and ``limit``, what resampling half-resolution Bayer
-                    planes costs, and where a layer occludes another, the warp's error there (the
-                    exact flow carries no occlusion)
-``limit``           the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
-``ours_mhc``,       beyond Ψ: ours and the limit with the Malvar–He–Cutler demosaic instead of Ψ for
-``limit_mhc``       the output (:mod:`spikeref.demosaic`, ``ReconstructParams(demosaic="mhc")``)
-``ours_count``      ours on Eq. 4's counts (``ReconstructParams(accumulate="count")``) with the bundled
-                    count network ``b2u_w16``: what the window charge (the default) buys
-==================  ==============================================================================
+=====================  ==============================================================================
+rung                   what it is
+=====================  ==============================================================================
+``tfp``                TFP over the ``W`` planes of the window: Eq. 4, then Ψ
+``bm3d``, ``nlm``      the classical peer a user would run on that one window instead: BM3D / non-local
+                       means on each Bayer plane of Eq. 4's rates, σ estimated blind (the ``peers`` extra)
+``net``                our denoiser on that one window: ``Ψ[D(I_0)]`` (the method at ``L = 0``, on what
+                       the method's windows give: the charge by default)
+``tfp_support``        TFP over the whole support ``((K−1)L+1)·W`` planes, equal weights, no motion
+``no_align``           the method with zero flow (plain accumulation with Eq. 14–15's weights, then D)
+``no_denoiser``        the method with the identity for ``D`` (flows estimated on the raw frames)
+``paper``              the paper's procedure exactly: Fig. 3(b) on Eq. 4's counts with Eq. 14–15 step by
+                       step, the plain alignment, the count network's ``D(I)`` without guard or shrinkage
+``ours``               the method as this package runs it by default (:class:`~spikeref.pipeline.ReconstructParams`)
+``true_flow``          the support warped by the scene's exact motion: every window's Bayer planes (of
+                       what the method's windows give) resampled once (cubic) onto the reference window,
+                       weighted by Eq. 14–15's binomial weights, no denoiser — what perfect alignment
+                       would give
+``true_flow_d``        the same, then our denoiser (told the exposure of ``I_L``, and as the pipeline
+                       does for charges, the reference window for its noise)
+``true_flow_bm3d``     the same, then BM3D on each Bayer plane (σ estimated blind): the classical peer
+                       after a perfect merge
+``true_flow_clean``     the same warp and weights on the *noise-free* windows (the exact ground truth of
+                       each window's ``W`` planes, mosaicked): between it and ``true_flow`` is the noise left
+                       after the merge; between it and ``limit``, what resampling half-resolution Bayer
+                       planes costs, and where a layer occludes another, the warp's error there (the
+                       exact flow carries no occlusion)
+``true_flow_support``  the adaptive merge's whole support (``ReconstructParams.support`` windows each side, as
+                       far as the recording goes) warped by the exact motion, each window's sample kept only
+                       where the exact motion says the point is visible in it, equal weights, no denoiser:
+                       what a perfect alignment and a perfect robustness test would merge: the
+                       adaptive merge's ceiling before its denoiser (a denoiser after it can pass it where
+                       much noise is left, as in low light)
+``limit``              the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
+``ours_mhc``,          beyond Ψ: ours and the limit with the Malvar–He–Cutler demosaic instead of Ψ for
+``limit_mhc``          the output (:mod:`spikeref.demosaic`, ``ReconstructParams(demosaic="mhc")``)
+``ours_count``         ours on Eq. 4's counts (``ReconstructParams(accumulate="count")``) with the bundled
+                       count network ``b2u_w16``: what the window charge (the default) buys
+=====================  ==============================================================================
 
 Without a denoiser given, the method's rungs load the bundled network for what their windows
 give (:func:`spikeref.denoise.denoiser.bundled_weights`); a denoiser given is used for every rung.
 
-The true-flow rungs need a motion model (:meth:`SceneContent.true_flow`); the fan has none and
-shows them empty.  For the method's own flows the ladder also reports the **end-point error**
+The true-flow rungs need a motion model (:meth:`SceneContent.true_flow`); a scene without one (a user's
+video) shows them empty.  For the method's own flows the ladder also reports the **end-point error**
 per step ``l``: the mean over pixels (an 8-pixel border left out, occluded pixels left out) of
 ``|F_l(k, k+i) − F_true(k, k+i)|`` in plane pixels, averaged over ``i`` and the scored frames,
 with the true flow between the centres of windows ``k`` and ``k+i`` at the 2×2 cell centres.
@@ -63,14 +69,15 @@ __all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "PEER_RUNGS", "TRUE_FLOW_RUNG
 
 #: The rungs, bottom to top.
 RUNGS = ("tfp", "bm3d", "nlm", "net", "tfp_support", "no_align", "no_denoiser", "paper", "ours", "true_flow",
-         "true_flow_d", "true_flow_bm3d", "true_flow_clean", "limit", "ours_mhc", "limit_mhc", "ours_count",
-         "ours_binomial", "ours_robust", "ours_adaptive")
+         "true_flow_d", "true_flow_bm3d", "true_flow_support", "true_flow_clean", "limit", "ours_mhc", "limit_mhc",
+         "ours_count", "ours_binomial", "ours_robust", "ours_adaptive")
 RUNG_LABELS = {
     "tfp": "TFP(W)", "bm3d": "BM3D on W", "nlm": "NLM on W", "net": "D on W", "tfp_support": "TFP(support)",
     "no_align": "no alignment", "no_denoiser": "no denoiser", "paper": "paper's Fig. 3(b)", "ours": "ours",
     "true_flow": "true flow",
     "true_flow_d": "true flow + D", "true_flow_bm3d": "true flow + BM3D",
-    "true_flow_clean": "true flow (noise-free)", "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
+    "true_flow_clean": "true flow (noise-free)", "true_flow_support": "true flow, ±support, visible",
+    "limit": "limit (Ψ of truth)", "ours_mhc": "ours, MHC demosaic",
     "limit_mhc": "limit, MHC demosaic", "ours_count": "ours, Eq. 4 count",
     "ours_binomial": "ours, Eq. 14–15 merge", "ours_robust": "ours, robust merge",
     "ours_adaptive": "ours, adaptive support",
@@ -82,7 +89,7 @@ GHOST_RUNGS = ("no_align", "ours_binomial", "ours_robust", "ours", "true_flow")
 #: The rungs that need a classical peer (its package), by peer.
 PEER_RUNGS = {"bm3d": ("bm3d", "true_flow_bm3d"), "nlm": ("nlm",)}
 #: The rungs made by warping with the scene's exact motion.
-TRUE_FLOW_RUNGS = ("true_flow", "true_flow_d", "true_flow_bm3d", "true_flow_clean")
+TRUE_FLOW_RUNGS = ("true_flow", "true_flow_d", "true_flow_bm3d", "true_flow_clean", "true_flow_support")
 #: Border left out of the end-point error, full-resolution pixels.
 EPE_BORDER = 8
 #: Plane pixels the motion-edge band reaches beyond the edge (:func:`motion_edge_band`).
@@ -131,7 +138,8 @@ def clean_window_counts(scene, cfa: str, window: int, start: int, count: int) ->
 
 
 def true_flow_frame(counts: np.ndarray, content, window: int, first_plane: int, ref_index: int,
-                    weights: np.ndarray, cfa_offsets=((0, 0), (0, 1), (1, 0), (1, 1))) -> np.ndarray:
+                    weights: np.ndarray, cfa_offsets=((0, 0), (0, 1), (1, 0), (1, 1)),
+                    visible_only: bool = False) -> np.ndarray:
     """``I`` of the support warped by the exact motion: ``(4, h, w) float32`` rates.
 
     Parameters
@@ -148,6 +156,10 @@ def true_flow_frame(counts: np.ndarray, content, window: int, first_plane: int, 
         Which of the ``n`` windows is the reference.
     weights : ndarray ``(n,)``
         Weight of each window (:func:`binomial_weights`).
+    visible_only : bool
+        Keep a window's sample only where the exact motion says the point is visible in that window
+        (:func:`~spikeref.simulate.motion.plane_flow`'s ``visible``: not occluded, inside the view); default
+        False (every sample inside the plane, as Eq. 14–15 would take it).
 
     Each plane of each window is resampled once, by cubic interpolation at ``x + F(x)`` with the
     exact backward flow from the reference window's centre to that window's centre, evaluated
@@ -171,9 +183,11 @@ def true_flow_frame(counts: np.ndarray, content, window: int, first_plane: int, 
                 acc[p] += weights[j] * rates
                 wsum[p] += weights[j]
                 continue
-            flow, _ = plane_flow(content, t_ref, t_j, offset=off)
+            flow, visible = plane_flow(content, t_ref, t_j, offset=off)
             sy, sx = yy + flow[0], xx + flow[1]
             inside = (sy >= -0.5) & (sy <= h - 0.5) & (sx >= -0.5) & (sx <= w - 0.5)
+            if visible_only and visible is not None:
+                inside &= visible
             sample = map_coordinates(rates, [sy, sx], order=3, mode="mirror")
             acc[p] += np.where(inside, weights[j] * sample, 0.0)
             wsum[p] += np.where(inside, weights[j], 0.0)
@@ -245,6 +259,21 @@ def _epe(est: np.ndarray, true: np.ndarray, visible: np.ndarray) -> float:
     err = np.hypot(est[0] - true[0], est[1] - true[1])[b:-b, b:-b]
     vis = visible[b:-b, b:-b]
     return float(err[vis].mean()) if vis.any() else float("nan")
+
+
+def _support_frame(view, content, params, k: int, offset: int, cfa: str) -> np.ndarray:
+    """The ``true_flow_support`` rung of frame ``k``: windows ``k ± params.support`` (those the recording has) of
+    what the method's windows give, warped by the exact motion where visible, equal weights, then Ψ."""
+    from spikeref.accumulate import window_counts
+    from spikeref.bayer import bayer_planes
+    from spikeref.charge import window_charge
+
+    w = params.window
+    lo, hi = max(0, k - params.support), min(len(view) // w - 1, k + params.support)
+    read = window_charge if params.accumulate == "charge" else window_counts
+    planes = bayer_planes(np.asarray(read(view, w, start=lo * w, count=hi - lo + 1), dtype=np.float32), cfa)
+    est = true_flow_frame(planes, content, w, offset + lo * w, k - lo, np.ones(hi - lo + 1), visible_only=True)
+    return psi(est, cfa)
 
 
 def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list, denoisers: dict, peers: dict,
@@ -324,6 +353,9 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                         more_d = more
                     d_tf = denoiser(tf, "visible", window=exposure_planes(w, K, L), **more_d)
                     out["true_flow_d"].append(psi(d_tf, cfa))
+        if "true_flow_support" in rungs:
+            out["true_flow_support"].append(
+                _support_frame(view, sc.scene.content, base, k, offset, cfa) if has_motion else None)
         if "limit" in rungs or "limit_mhc" in rungs:
             from spikeref.demosaic import demosaic_mhc
 
@@ -398,7 +430,8 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
         Which rungs to run (default all, :data:`RUNGS`).
     params : dict, optional
         Fields of :class:`~spikeref.pipeline.ReconstructParams` that replace the defaults in the
-        method's rungs (``ours``, ``no_align``, ``no_denoiser``) — for studies; the ``paper``
+        method's rungs (``ours``, ``no_align``, ``no_denoiser``) and ``true_flow_support``'s ``support`` — for
+        studies; the ``paper``
         rung always runs the paper's procedure.
 
     Returns

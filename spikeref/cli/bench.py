@@ -188,9 +188,10 @@ def add_parser(sub) -> list[argparse.ArgumentParser]:
     p.add_argument("--ladder", action="store_true",
                    help="the stage ladder instead of the grid: per scene, TFP(W), BM3D / NLM on one window "
                         "(extra peers), the denoiser on one window, TFP(support), no alignment, no denoiser, "
-                        "ours, the true-flow ceiling (alone, with the denoiser, with BM3D, on noise-free "
-                        "windows), and the limit (the noise-free mosaic through Ψ), plus the flow's end-point "
-                        "error per step; at W/K/L from -W/-K/-L (default 10/3/3). Writes ladder.csv, ladder.md "
+                        "ours, the true-flow ceiling (alone, with the denoiser, with BM3D, over the adaptive "
+                        "merge's whole support where visible, on noise-free windows), and the limit (the "
+                        "noise-free mosaic through Ψ), plus the flow's end-point error per step; at W/K/L "
+                        "from -W/-K/-L (default 10/3/3). Writes ladder.csv, ladder.md "
                         "and (with spikeref[plot]) ladder.png into --out; about 100 s on 2 cores with the "
                         "peers extra. With --ladder, -W/-K/-L, --scenes, --frames, --seed, --weights, --out and "
                         "--no-progress apply; --quick, --methods, --modes, --align and --flow-frames are refused")
