@@ -110,14 +110,15 @@ def workspace_size(n_core: int, n_shell: int, nc: int, h: int, w: int) -> int:
 
 @njit(parallel=True)
 def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell_idx, box, z0, clip, iterations,
-                        safety, noise_floor, window, work, est, windows):
+                        safety, noise_floor, window, work, est, windows, final):
     """:func:`spikeref.merge.robust_merge` (its module doc) on checked arrays.
 
     ``s`` ``(n, C, h, w)`` float32 or float64, ``base`` ``(n, h, w)`` and ``v`` ``(C, h, w)`` float64;
     ``core`` the core windows' indices (int64), ``ref_pos`` the reference's place among them; the shells'
     windows ``shell_idx[shell_start[i]:shell_start[i + 1]]``; ``work`` float64 of :func:`workspace_size`
-    values, which every buffer is cut from.  Writes the unclipped estimate ``est`` ``(C, h, w)`` and the effective
-    number of windows ``windows`` ``(h, w)`` (float64).  Nothing is allocated here or returned: an array made
+    values, which every buffer is cut from.  Writes the unclipped estimate ``est`` ``(C, h, w)``, the effective
+    number of windows ``windows`` ``(h, w)`` (float64) and each window's final weight ``final`` ``(n, h, w)``
+    (float64; 0 for a window not merged there).  Nothing is allocated here or returned: an array made
     or returned by a parallel kernel makes Numba run Python code at every call, where a pending Ctrl-C would
     surface as a SystemError instead of a KeyboardInterrupt.
     """
@@ -207,6 +208,12 @@ def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell
                         est[c, y, x] += share[i, y, x] * s[core[i], c, y, x]
     # the core's weights, its scatter about its merge (v̂), and a shell window's unit weight
     for y in prange(h):
+        for j in range(n):
+            for x in range(w):
+                final[j, y, x] = 0.0
+        for i in range(nk):
+            for x in range(w):
+                final[core[i], y, x] = omega[i, y, x]
         for x in range(w):
             wsum[y, x] = 0.0
             wsq[y, x] = 0.0
@@ -302,6 +309,7 @@ def robust_merge_kernel(s, base, v, reference, core, ref_pos, shell_start, shell
                 for x in range(w):
                     if alive[y, x] > 0:
                         a = rs[j, y, x] * unit[y, x]
+                        final[sh[j], y, x] = a
                         for c in range(nc):
                             est[c, y, x] += a * s[sh[j], c, y, x]
             for x in range(w):

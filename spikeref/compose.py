@@ -251,9 +251,10 @@ def _composed_samples(counts, bank, hop_flow, hop_parent, hop_start, leaf, targe
 
 
 @njit(parallel=True)
-def _chained_samples(counts, start, flows, inv_window, out, valid):
+def _chained_samples(counts, start, flows, inv_window, out, valid, positions):
     """Continue positions ``start`` ``(2, h, w)`` (NaN: none) hop by hop along ``flows[i]`` (from the window before
-    ``counts[i]`` to it) and sample each window there: ``out`` ``(m, C, h, w)`` rates, ``valid`` ``(m, h, w)``."""
+    ``counts[i]`` to it) and sample each window there: ``out`` ``(m, C, h, w)`` rates, ``valid`` ``(m, h, w)``,
+    ``positions`` ``(m, 2, h, w)`` (NaN where not valid)."""
     m, nc, h, w = counts.shape
     for y in prange(h):
         acc = np.zeros(nc)
@@ -273,10 +274,14 @@ def _chained_samples(counts, start, flows, inv_window, out, valid):
                     for c in range(nc):
                         out[i, c, y, x] = acc[c] * inv_window
                     valid[i, y, x] = 1.0
+                    positions[i, 0, y, x] = sy
+                    positions[i, 1, y, x] = sx
                 else:
                     for c in range(nc):
                         out[i, c, y, x] = 0.0
                     valid[i, y, x] = 0.0
+                    positions[i, 0, y, x] = np.nan
+                    positions[i, 1, y, x] = np.nan
 
 
 def _hop_tree(hops: np.ndarray):
@@ -418,7 +423,7 @@ def composed_samples(counts, bank, hops, targets, window: float) -> tuple:
     return out, kept, pos
 
 
-def chained_samples(counts, start, flows, window: float) -> tuple:
+def chained_samples(counts, start, flows, window: float, positions: bool = False) -> tuple:
     """Windows beyond the composed support, reached by chaining step-0 flows from a position in the last one.
 
     Parameters
@@ -433,6 +438,8 @@ def chained_samples(counts, start, flows, window: float) -> tuple:
         convention), sampled bilinearly at the moved position, clamped to the grid.
     window : float
         ``W``.
+    positions : bool
+        Also return the chained positions.
 
     Returns
     -------
@@ -440,6 +447,8 @@ def chained_samples(counts, start, flows, window: float) -> tuple:
         Catmull–Rom samples (rates) at the chained positions; 0 where not valid.
     valid : ndarray ``(m, h, w) float32``
         1 while the chain stays inside the plane (``[−½, h − ½] × [−½, w − ½]``), 0 from where it leaves.
+    positions : ndarray ``(m, 2, h, w) float32``, with ``positions=True``
+        The position ``(y, x)`` in plane pixels of each window's sample; NaN where not valid.
     """
     c = np.asarray(counts)
     f = np.asarray(flows)
@@ -454,7 +463,8 @@ def chained_samples(counts, start, flows, window: float) -> tuple:
     m, nc, h, w = c.shape
     out = np.zeros((m, nc, h, w), np.float32)
     valid = np.zeros((m, h, w), np.float32)
+    pos = np.full((m, 2, h, w), np.nan, np.float32)
     if m:
         _chained_samples(np.ascontiguousarray(c, dtype=np.float32), np.ascontiguousarray(st, dtype=np.float64),
-                         np.ascontiguousarray(f, dtype=np.float32), 1.0 / float(window), out, valid)
-    return out, valid
+                         np.ascontiguousarray(f, dtype=np.float32), 1.0 / float(window), out, valid, pos)
+    return (out, valid, pos) if positions else (out, valid)

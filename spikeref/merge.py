@@ -166,7 +166,7 @@ def _workspace(size: int) -> np.ndarray:
 
 
 def robust_merge(samples, weights, noise, reference: int, core, params: MergeParams = MergeParams(),
-                 check: bool = True) -> tuple:
+                 check: bool = True, final_weights: bool = False) -> tuple:
     """The robust merge of aligned windows, with the adaptive support when ``params.shells`` are given.
 
     Parameters
@@ -189,6 +189,9 @@ def robust_merge(samples, weights, noise, reference: int, core, params: MergePar
     check : bool
         Check the arguments (default).  ``False`` skips the checks of values (finite, non-negative), which read
         every sample: for callers that made the arrays themselves (:class:`spikeref.pipeline.Reconstructor`).
+    final_weights : bool
+        Also return each window's final weight ``ω`` (what :mod:`spikeref.multiframe_demosaic` merges the windows'
+        raw samples with).
 
     Returns
     -------
@@ -197,10 +200,15 @@ def robust_merge(samples, weights, noise, reference: int, core, params: MergePar
     windows : ndarray ``(h, w) float32``
         The effective number of windows merged, ``(Σ ω)² / Σ ω²`` over the final weights ``ω`` (times ``W``: the
         pseudo-exposure in planes).  Eq. 14–15's binomial weights at 10/3/3 give 27² / 141 = 5.17.
+    final : ndarray ``(n, h, w) float32``, with ``final_weights=True``
+        Each window's weight ``ω`` in the estimate (``estimate = Σ ω s / Σ ω`` before the clip): base weight ×
+        robustness for the core windows, the unit weight × robustness for a shell's where the shell was taken,
+        else 0.
     """
     if not check:
-        return _robust_merge(np.asarray(samples), np.asarray(weights), np.asarray(noise), int(reference),
-                             np.asarray(core, dtype=bool), params)
+        out = _robust_merge(np.asarray(samples), np.asarray(weights), np.asarray(noise), int(reference),
+                            np.asarray(core, dtype=bool), params)
+        return out if final_weights else out[:2]
     s = np.asarray(samples)
     if not np.issubdtype(s.dtype, np.number) or np.issubdtype(s.dtype, np.complexfloating):
         raise TypeError(f"samples must be real numbers; got {s.dtype}")
@@ -224,7 +232,8 @@ def robust_merge(samples, weights, noise, reference: int, core, params: MergePar
         raise TypeError(f"params must be a MergeParams; got {type(params).__name__}")
     if not np.all(np.isfinite(s)):
         raise ValueError("samples must be finite")
-    return _robust_merge(s, base, v, int(reference), core, params)
+    out = _robust_merge(s, base, v, int(reference), core, params)
+    return out if final_weights else out[:2]
 
 
 def _robust_merge(s: np.ndarray, base: np.ndarray, v: np.ndarray, reference: int, core: np.ndarray,
@@ -240,10 +249,10 @@ def _robust_merge(s: np.ndarray, base: np.ndarray, v: np.ndarray, reference: int
     if s.dtype not in (np.float32, np.float64):
         s = s.astype(np.float64)
     work = _workspace(workspace_size(idx.size, max((sh.size for sh in shells), default=0), nc, h, w))
-    est, windows = np.empty((nc, h, w)), np.empty((h, w))
+    est, windows, final = np.empty((nc, h, w)), np.empty((h, w)), np.empty((n, h, w))
     robust_merge_kernel(np.ascontiguousarray(s), np.ascontiguousarray(base, dtype=s.dtype),
                         np.ascontiguousarray(v, dtype=np.float64), reference, idx,
                         int(np.flatnonzero(idx == reference)[0]), shell_start, shell_idx, int(params.box),
                         float(params.z), float(params.clip), int(params.iterations), float(params.safety),
-                        float(params.noise_floor), float(params.window), work, est, windows)
-    return np.clip(est, 0.0, 1.0).astype(np.float32), windows.astype(np.float32)
+                        float(params.noise_floor), float(params.window), work, est, windows, final)
+    return np.clip(est, 0.0, 1.0).astype(np.float32), windows.astype(np.float32), final.astype(np.float32)

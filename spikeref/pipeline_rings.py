@@ -26,6 +26,7 @@ from spikeref.charge import WINDOWS_PER_CALL, window_charge
 from spikeref.compose import chained_samples, composed_samples, composed_warp, path_table
 from spikeref.demosaic import demosaic
 from spikeref.merge import MergeParams, default_shells, robust_merge
+from spikeref.multiframe_demosaic import multiframe_demosaic, shrink_increment
 from spikeref.pipeline_params import FLOW_SMOOTHING_SIGMA, ReconstructParams, exposure_planes
 from spikeref.stream import SpikeStream
 from spikeref.warp import warp_average, warp_spike_windows
@@ -117,6 +118,7 @@ class FrameRings:
         self.rings: list[dict] = [dict() for _ in range(self.p.L + 1)]
         self.step0: dict[int, np.ndarray] = {}  # F_0(k, ·) of warp="chained" and of the adaptive support
         self.merge_windows: dict[int, np.ndarray] = {}  # the robust merge's effective windows per pixel, by frame
+        self.multiframe: dict[int, tuple] = {}  # demosaic="multiframe": (windows' planes, positions, final weights)
         self.counts: dict[int, np.ndarray] = {}
 
     # step 0 -------------------------------------------------------------
@@ -318,6 +320,8 @@ class FrameRings:
         n, reach = counts.shape[0], p.reach
         weights = [kept]  # Eq. 14–15's path counts: the core windows' base weights
         samples = [samples]
+        multiframe = p.demosaic_used == "multiframe"
+        raw, where = [counts], [pos]  # each window's own planes and where each cell's content is in it
         offset, shells = 0, ()
         if merge == "adaptive":  # the windows beyond, each way, reached by chaining step-0 flows from the ends
             shells = default_shells(reach, p.support)
@@ -329,13 +333,17 @@ class FrameRings:
                 flows = np.stack([self.step0_flows(j - step)[p.half + step] for j in js])  # F_0(j − step, j)
                 more_counts = np.stack([self.window_counts(j) for j in js])
                 with self.timed("warp"):
-                    more, ok = chained_samples(more_counts, end, flows, p.window)
+                    more, ok, more_pos = chained_samples(more_counts, end, flows, p.window, positions=True)
                 if step > 0:
                     samples.append(more)
                     weights.append(ok)
+                    raw.append(more_counts)
+                    where.append(more_pos)
                 else:
                     samples.insert(0, more[::-1])
                     weights.insert(0, ok[::-1])
+                    raw.insert(0, more_counts[::-1])
+                    where.insert(0, more_pos[::-1])
                     offset = len(js)
         samples, weights = np.concatenate(samples), np.concatenate(weights)
         core = np.zeros(samples.shape[0], bool)
@@ -343,10 +351,12 @@ class FrameRings:
         with self.timed("warp"):
             reference = counts[reach].astype(np.float64) / p.window
             noise = np.stack([local_noise(plane) for plane in reference])
-            est, windows = robust_merge(samples, weights, noise, offset + reach, core,
-                                        MergeParams(shells=shells, window=float(p.window)),
-                                        check=False)
+            est, windows, final = robust_merge(samples, weights, noise, offset + reach, core,
+                                               MergeParams(shells=shells, window=float(p.window)),
+                                               check=False, final_weights=True)
         self.merge_windows[k] = windows
+        if multiframe:
+            self.multiframe[k] = (np.concatenate(raw), np.concatenate(where), final)
         return est
 
     # output ------------------------------------------------------------
@@ -355,16 +365,38 @@ class FrameRings:
             mosaic = bayer_mosaic(planes, self.stream.cfa or "RGGB")
             if not self.stream.cfa:
                 return mosaic
-            return demosaic(mosaic, self.stream.cfa, self.p.demosaic)
+            # the steps below L of the multi-frame demosaic's frames: Ψ (they have no windows of their own)
+            used = self.p.demosaic_used
+            return demosaic(mosaic, self.stream.cfa, "bilinear" if used == "multiframe" else used)
+
+    def final_rgb(self, k: int) -> np.ndarray:
+        """The output frame ``k``: ``Ψ[D(I_L)]`` (Eq. 13), or with the multi-frame demosaic every merged window's
+        raw samples at full resolution (:mod:`spikeref.multiframe_demosaic`), what that adds to ``Ψ(I_L)`` shrunk
+        where it is not above its noise (:func:`~spikeref.multiframe_demosaic.shrink_increment`), plus the
+        denoiser's change ``Ψ[D(I_L) − I_L]``."""
+        L = self.p.L
+        denoised = self.denoised(L, k)
+        inputs = self.multiframe.pop(k, None) if self.stream.cfa else None
+        if inputs is None:
+            return self.finish(denoised).astype(np.float32, copy=False)
+        merged = self.planes(L, k)
+        cfa = self.stream.cfa
+        with self.timed("demosaic"):
+            counts, positions, final = inputs
+            change = demosaic(bayer_mosaic(denoised - merged, cfa), cfa, "bilinear")
+            fallback = demosaic(bayer_mosaic(merged, cfa), cfa, "bilinear")
+            rgb = multiframe_demosaic(counts, positions, final, float(self.p.window), cfa, fallback)
+            rgb = shrink_increment(rgb, fallback)  # what it adds to Ψ of the merge, where it is more than noise
+            return (rgb + change).astype(np.float32, copy=False)
 
     def output(self, k: int, keep_steps: bool) -> ReconstructedFrame:
         L = self.p.L
-        rgb = self.finish(self.denoised(L, k)).astype(np.float32, copy=False)
+        rgb = self.final_rgb(k)
         windows = self.merge_windows.get(k)
         frame = ReconstructedFrame(index=k, rgb=rgb,
                                    exposure=None if windows is None else windows * np.float32(self.p.window))
         if keep_steps:
-            frame.steps = [self.finish(self.denoised(step, k)) for step in range(L + 1)]
+            frame.steps = [self.finish(self.denoised(step, k)) for step in range(L)] + [rgb]
             for step in range(1, L + 1):
                 fl = self.rings[step][k][3]
                 for i, f in zip(range(-self.p.half, self.p.half + 1), fl, strict=True):
@@ -385,5 +417,7 @@ class FrameRings:
         low0 = next_k - (read if self.p.merge_used == "adaptive" else (L - 1) * hh)  # F_0: the chains' or the steps'
         for key in [key for key in self.step0 if key < low0]:
             del self.step0[key]
+        for key in [key for key in self.multiframe if key < next_k]:
+            del self.multiframe[key]
         for key in [key for key in self.merge_windows if key < next_k]:
             del self.merge_windows[key]

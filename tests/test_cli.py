@@ -241,7 +241,7 @@ def test_reconstruct_without_a_denoiser(tmp_path, capsys):
     assert "the fastest preset, no denoiser)" in err and "weights" not in err.splitlines()[0]
     assert "\nnetwork         0.000" in err
     assert main(["reconstruct", "--exr-dir", str(tmp_path / "n"), "--frames", "3:4", "--no-denoiser"]) == 0
-    assert "composed warp, no denoiser)" in capsys.readouterr().err
+    assert "composed warp, multi-frame demosaic, no denoiser)" in capsys.readouterr().err
     want = next(iter(Reconstructor(load_sample(), ReconstructParams.fastest()).frames(3, 4))).rgb
     np.testing.assert_allclose(read_exr(tmp_path / "f" / "frame_000003.exr"), want, rtol=1e-6)
     assert main(["reconstruct", "-o", str(tmp_path / "x.mp4"), "--no-denoiser", "--weights", "b2u_w16"]) == 2

@@ -177,6 +177,12 @@ def test_chained_samples_follow_a_translation_and_stop_at_the_border():
         assert np.all(valid[i][:, inside][1:] == 1) and np.all(valid[i][:, ~inside] == 0)
         np.testing.assert_allclose(samples[i][:, 1:, inside], counts[i][:, 1:, shift:] / 4, atol=1e-6)
     assert np.all(valid[:, 0, 0] == 0)
+    _, _, pos = chained_samples(counts, start, flows, 4, positions=True)
+    for i in range(m):  # where the chain is: (y, x + 2(i + 1)) while inside, NaN after
+        inside = valid[i] > 0
+        np.testing.assert_allclose(pos[i, 1][inside], (start[1] + 2 * (i + 1))[inside])
+        np.testing.assert_allclose(pos[i, 0][inside], start[0][inside])
+        assert np.all(np.isnan(pos[i][:, ~inside]))
     with pytest.raises(ValueError, match="one flow per window"):
         chained_samples(counts, start, flows[:2], 4)
     with pytest.raises(ValueError, match="start must have shape"):

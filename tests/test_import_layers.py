@@ -49,6 +49,7 @@ LAYERS = {
     "spikeref.compose": 3,
     "spikeref.merge": 3,
     "spikeref._merge_kernels": 3,
+    "spikeref.multiframe_demosaic": 3,
     "spikeref.demosaic": 3,
     "spikeref.simulate": 3,
     "spikeref.noise_check": 3,

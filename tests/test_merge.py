@@ -32,10 +32,17 @@ def test_the_merge_is_its_oracle(seed, half, box, shells, window):
     core = np.abs(np.arange(n) - ref) <= half
     params = MergeParams(box=box, shells=((half + 1, half + 1), (half + 2, half + 2)) if shells else (),
                          window=window)
-    est, windows = robust_merge(samples, weights, noise, ref, core, params)
-    want, want_windows = robust_merge_oracle(samples, weights, noise, ref, core, params)
+    est, windows, final = robust_merge(samples, weights, noise, ref, core, params, final_weights=True)
+    want, want_windows, want_final = robust_merge_oracle(samples, weights, noise, ref, core, params,
+                                                         final_weights=True)
     np.testing.assert_allclose(est, want, rtol=1e-5, atol=1e-6)
     np.testing.assert_allclose(windows, want_windows, rtol=1e-5)
+    np.testing.assert_allclose(final, want_final, rtol=1e-5, atol=1e-6)
+    # the final weights are the estimate's: Σ ω s / Σ ω (before the clip to [0, 1]) and (Σ ω)² / Σ ω²
+    merged = np.clip((final[:, None] * samples).sum(axis=0) / final.sum(axis=0)[None], 0.0, 1.0)
+    np.testing.assert_allclose(est, merged, rtol=1e-4, atol=1e-5)
+    some = final.sum(axis=0) > 1e-6  # (a reference of base weight 0 counts as 1e-12)
+    np.testing.assert_allclose(windows[some], (final.sum(axis=0) ** 2 / (final ** 2).sum(axis=0))[some], rtol=1e-4)
 
 
 def test_where_all_windows_agree_the_core_is_eq_14_15():

@@ -37,8 +37,9 @@ rung                   what it is
                        far as the recording goes) warped by the exact motion, each window's sample kept only
                        where the exact motion says the point is visible in it, equal weights, no denoiser:
                        what a perfect alignment and a perfect robustness test would merge: the
-                       adaptive merge's ceiling before its denoiser (a denoiser after it can pass it where
-                       much noise is left, as in low light)
+                       ceiling of the adaptive merge through Ψ before its denoiser (a denoiser after it can
+                       pass it where much noise is left, as in low light, and the multi-frame demosaic,
+                       which reads the windows' raw samples instead of Ψ, passes it on moving scenes)
 ``limit``              the noise-free ground-truth mosaic through Ψ: no method that ends in Ψ passes it
 ``ours_mhc``,          beyond Ψ: ours and the limit with the Malvar–He–Cutler demosaic instead of Ψ for
 ``limit_mhc``          the output (:mod:`spikeref.demosaic`, ``ReconstructParams(demosaic="mhc")``)

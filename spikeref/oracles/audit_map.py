@@ -184,6 +184,20 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         golden="{robust_merge}",
     ),
     AuditRow(
+        equation="— (not in the paper; replaces Eq. 13's Ψ where the merge is robust or adaptive: the default)",
+        what=("the multi-frame demosaic: each full-resolution pixel and colour gathers every merged window's raw "
+              "Bayer samples around where its content is in that window, weighted by the window's final merge weight "
+              "and a Gaussian of the distance (`σ = 0.6` px for red and blue, `σ/√2` for green); the denoiser's change "
+              "of the merged planes is added through Ψ ([spec](spec/multiframe_demosaic.md#multiframe_demosaic))"),
+        function=('`spikeref.multiframe_demosaic.multiframe_demosaic`; `spikeref.merge.robust_merge(final_weights='
+                  'True)`; `ReconstructParams(demosaic="auto" | "multiframe")`'),
+        oracle='`oracles.multiframe_demosaic.multiframe_demosaic_oracle` (pixel by pixel)',
+        tests=('`tests/test_multiframe_demosaic.py` (oracle by hypothesis, one window keeps each site\'s value, four '
+               'phases recover what one mosaic misses, the fallback), `tests/test_pipeline.py` (the default, a static '
+               'and a moving scene), `tests/test_merge.py` (the final weights are the estimate\'s)'),
+        golden="{multiframe_demosaic}, {robust_merge} (`final_adaptive_floor`)",
+    ),
+    AuditRow(
         equation="— (not in the paper; the pipeline's default, `paper()` keeps them)",
         what=("hot pixels: found in the recording (above the second largest of the 8 same-colour neighbours by "
               "`max(0.1, 6σ)` over the stretch and in half its blocks, and alone among the 8 mosaic neighbours), "

@@ -40,6 +40,7 @@ from spikeref.oracles import effects as o_fx
 from spikeref.oracles import guard as o_guard
 from spikeref.oracles import merge as o_merge
 from spikeref.oracles import metrics as o_met
+from spikeref.oracles import multiframe_demosaic as o_mf
 from spikeref.oracles import pipeline as o_pipe
 from spikeref.oracles import revisible as o_rev
 from spikeref.oracles import shrinkage as o_shr
@@ -54,7 +55,7 @@ __all__ = ["GoldenCase", "CASES", "FAST", "MANIFEST_FORMAT", "manifest_entry", "
 
 #: The oracle modules whose ``GOLDEN_CASES`` make the registry, in the manifest's order.
 ORACLE_MODULES = (o_dat, o_cam, o_fx, o_bs, o_unet, o_acc, o_charge, o_bayer, o_dem, o_bl, o_warp, o_align,
-                  o_rev, o_shr, o_pipe, o_met, o_compose, o_guard, o_merge)
+                  o_rev, o_shr, o_pipe, o_met, o_compose, o_guard, o_merge, o_mf)
 
 
 @dataclass(frozen=True)
@@ -154,6 +155,12 @@ def _composed(case, i):
     return case.outputs(i, composed_warp)
 
 
+def _multiframe(case, i):
+    from spikeref.multiframe_demosaic import multiframe_demosaic
+
+    return case.outputs(i, multiframe_demosaic)
+
+
 def _merge(case, i):
     from spikeref.merge import MergeParams, robust_merge
 
@@ -214,6 +221,7 @@ FAST: dict[str, Callable] = {
     "composed_warp": _composed,
     "sure_guard": _guard,
     "robust_merge": _merge,
+    "multiframe_demosaic": _multiframe,
 }
 
 

@@ -53,8 +53,9 @@ def _robustness(d, u, base, p, y, x):
     return np.array(out)
 
 
-def robust_merge_oracle(samples, weights, noise, reference, core, params):
-    """:func:`spikeref.merge.robust_merge`, pixel by pixel (float64; returns the estimate unclipped to float32)."""
+def robust_merge_oracle(samples, weights, noise, reference, core, params, final_weights=False):
+    """:func:`spikeref.merge.robust_merge`, pixel by pixel (float64; returns the estimate unclipped to float32);
+    with ``final_weights``, also each window's final weight."""
     s = np.asarray(samples, dtype=np.float64)
     base = np.asarray(weights, dtype=np.float64)
     v = np.asarray(noise, dtype=np.float64)
@@ -104,6 +105,9 @@ def robust_merge_oracle(samples, weights, noise, reference, core, params):
                 spikes = est[c, y, x] * p.window
                 floor = p.noise_floor * v[c, y, x] / (max(1.0, spikes) if p.window > 0 else 1.0)
                 v_hat[c, y, x] = max(_box(resid[c], y, x, p.box) / max(_box(dof, y, x, p.box), 1e-12), floor)
+    final = np.zeros((n, h, w))
+    for j in range(m):
+        final[idx[j]] = omega[j]
     vbar = v.mean(axis=0)
     alive = np.ones((h, w), bool)
     dist = np.abs(np.arange(n) - reference)
@@ -145,12 +149,15 @@ def robust_merge_oracle(samples, weights, noise, reference, core, params):
                     continue
                 add = rs[:, y, x] * unit[y, x]
                 new_sum = weight_sum[y, x] + add.sum()
+                final[sh, y, x] = add
                 for c in range(nc):
                     est[c, y, x] = (est[c, y, x] * weight_sum[y, x] + sum(add[i] * s[sh[i], c, y, x]
                                                                            for i in range(len(sh)))) / new_sum
                 weight_sq[y, x] += (add * add).sum()
                 weight_sum[y, x] = new_sum
     windows = weight_sum * weight_sum / np.maximum(weight_sq, 1e-12)
+    if final_weights:
+        return np.clip(est, 0.0, 1.0), windows, final
     return np.clip(est, 0.0, 1.0), windows
 
 
@@ -181,9 +188,12 @@ def _merge_outputs(i, merge, params_cls):
     for name, shells, window in (("robust", (), 0.0), ("adaptive", ((3, 3), (4, 4)), 0.0),
                                        ("adaptive_floor", ((3, 3), (4, 4)), 10.0)):
         params = params_cls(shells=shells, window=window)
-        est, windows = merge(i["samples"], i["weights"], i["noise"], int(i["reference"]), i["core"], params)
+        est, windows, final = merge(i["samples"], i["weights"], i["noise"], int(i["reference"]), i["core"], params,
+                                    final_weights=True)
         out[f"estimate_{name}"] = np.asarray(est, np.float64)
         out[f"windows_{name}"] = np.asarray(windows, np.float64)
+        if name == "adaptive_floor":  # the pipeline's: what the multi-frame demosaic weighs the windows by
+            out[f"final_{name}"] = np.asarray(final, np.float64)
     return out
 
 
@@ -205,8 +215,9 @@ GOLDEN_CASES = (
         "core window 3 and part of core window 6, far window 0 offset everywhere: the robust merge of the core "
         "(estimate_robust, windows_robust) and with the shells |j − k| = 3 and 4 offered (estimate_adaptive, "
         "windows_adaptive), and the same with the shells' noise floor falling above one spike a window of W = 10 "
-        "readouts (estimate_adaptive_floor, windows_adaptive_floor; the pipeline's rule). The oracle computes in "
-        "float64 pixel by pixel, the fast function returns float32.",
+        "readouts (estimate_adaptive_floor, windows_adaptive_floor; the pipeline's rule) with each window's final "
+        "weight there (final_adaptive_floor, (9, 9, 10): what the multi-frame demosaic weighs the windows by). The "
+        "oracle computes in float64 pixel by pixel, the fast function returns float32.",
         _inputs_merge, lambda i: _merge_outputs(i, robust_merge_oracle, _Params),
         rtol=1e-5, atol=1e-6,
         params={"box": 5, "z": 3.0, "clip": 3.0, "iterations": 2, "safety": 4.0,

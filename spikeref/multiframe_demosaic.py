@@ -1,0 +1,263 @@
+r"""A multi-frame demosaic: every merged window's raw Bayer samples, gathered at full resolution (not in the paper).
+
+Eq. 13 demosaics the merged frame: ``Ψ`` interpolates each colour from its own quarter (or half) of the pixels, so
+the frame is bounded by ``Ψ`` of the truth (the ladder's ``limit``), and resampling each window's half-resolution
+planes before the merge (Eq. 14–15, :mod:`spikeref.compose`) blurs and aliases what the windows' sub-pixel
+motion had sampled.  When the scene moves, the windows sample it at other phases of the colour filter array: a
+point that fell on a red site in one window falls on a green one in the next.  Burst photography uses that
+(Wronski et al., *Handheld multi-frame super-resolution*, 2019: each raw sample splatted with a kernel at its
+aligned position); this module does the same with the windows and weights of the robust merge
+(:mod:`spikeref.merge`), gathering instead of splatting.
+
+For full-resolution pixel ``X = (Y, X)`` of the reference window and colour ``ch``, with ``x = ⌊X/2⌋`` its 2×2
+cell on the plane grid:
+
+.. math::
+
+    \hat I_{ch}(X) = \frac{\sum_j ω_j(x) \sum_{c:\,col(c) = ch} \sum_{q ∈ N_c(X'_j)} g(|P_c(q) − X'_j|)\,
+                     s_{j,c}(q) / W}
+                    {\sum_j ω_j(x) \sum_{c:\,col(c) = ch} \sum_{q ∈ N_c(X'_j)} g(|P_c(q) − X'_j|)},
+    \qquad X'_j = X + 2\,(p_j(x) − x),
+
+with ``p_j(x)`` the position (plane pixels) of the cell's content in window ``j`` (:func:`spikeref.compose.
+composed_samples`' ``positions``, :func:`~spikeref.compose.chained_samples`' beyond the support), ``ω_j`` its
+final weight in the robust merge (:func:`spikeref.merge.robust_merge` with ``final_weights=True``), ``s_{j,c}``
+window ``j``'s count (or charge) in Bayer plane ``c``, whose pixel ``q`` lies at ``P_c(q) = 2q + o_c`` full-
+resolution pixels (``o_c`` the plane's offset in the 2×2 cell), ``N_c(X')`` the 2×2 pixels of plane ``c`` around
+``X'`` and ``g(d) = exp(−d² / 2σ_c²)``: ``σ_c = σ / √m_c`` (``σ`` = :attr:`MultiframeParams.sigma`, full-resolution
+pixels; ``m_c`` the planes of ``c``'s colour — the kernel scaled to the spacing of the colour's sites, 2 pixels for
+red and blue, √2 for green — so that with one window each colour keeps its own sites' values, as ``Ψ`` does).
+
+Interpretations:
+
+* One displacement per 2×2 cell (the flows are estimated on the 2×2 luma), nearest cell: no interpolation of the
+  position field.
+* The weights are the merge's, so a window the merge refused at a cell adds nothing there, and the frame's noise is
+  the merge's; with one window (or windows that did not move) this is a Gaussian-weighted interpolation of each
+  colour from its own sites, close to ``Ψ`` (bilinear).
+* Where no sample of a colour has weight (``Σ ω g`` = 0: every window refused and outside), the pixel takes
+  ``fallback`` (the pipeline gives ``Ψ`` of the merged planes).
+* Rates are not clipped; the pipeline adds the denoiser's change ``Ψ[D(I) − I]`` of the merged planes.
+
+**What it adds, shrunk where it is noise** (:func:`shrink_increment`, the pipeline's next step).  The gathered frame
+is sharper than ``Ψ`` of the merge but noisier: each window contributes mostly its nearest sites, where the merge's
+cubic resampling averages several (and the merge's denoiser sees only the merged planes).  Its increment
+``d = Î − Ψ(I)`` is real detail where the windows' phases differ and noise where they do not, so it is kept by a
+local Wiener gain, ``Ψ(I) + g d`` with ``g = clip(1 − σ_ch² / box(d²), 0, 1)`` per pixel and colour: ``σ_ch`` the
+increment's own noise, estimated per colour from the whole frame (:func:`spikeref.denoise.guard.noise_sigma`,
+Immerkær's truncated estimate), ``box`` the mean over :data:`SHRINK_BOX` × :data:`SHRINK_BOX` pixels.  Measured on
+the benchmark scenes (``docs/results.md``, "The multi-frame demosaic"): mean +0.07 dB, low light +0.28; twice
+``σ²`` made no difference (29.59 both).
+
+The literal oracle is :func:`spikeref.oracles.multiframe_demosaic.multiframe_demosaic_oracle`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from scipy.ndimage import uniform_filter
+
+from spikeref._checks import finite_number
+from spikeref._jit import njit, prange
+from spikeref.denoise.guard import noise_sigma
+
+__all__ = ["MultiframeParams", "multiframe_demosaic", "shrink_increment", "plane_channels", "plane_sigmas",
+           "PLANE_OFFSETS", "SHRINK_BOX"]
+
+#: Side (full-resolution pixels) of the box over which :func:`shrink_increment` measures the increment's energy.
+SHRINK_BOX = 5
+
+#: Offsets ``(dy, dx)`` of the four Bayer planes in the 2×2 cell, in :func:`spikeref.bayer.bayer_planes`' order.
+PLANE_OFFSETS = ((0, 0), (0, 1), (1, 0), (1, 1))
+
+
+@dataclass(frozen=True)
+class MultiframeParams:
+    """Parameters of :func:`multiframe_demosaic`.
+
+    Attributes
+    ----------
+    sigma : float
+        ``σ`` of the Gaussian kernel for red and blue in full-resolution pixels (green's is ``σ/√2``): 0.6, chosen on
+        the benchmark scenes among 0.45, 0.6 and 0.75 (means 29.39, 29.48, 29.18 dB with one σ for all colours; the
+        held-out set run once, ``docs/results.md``, "The multi-frame demosaic").
+    """
+
+    sigma: float = 0.6
+
+    def __post_init__(self):
+        finite_number(self.sigma, "sigma", positive=True)
+
+
+@njit(parallel=True)
+def _multiframe_kernel(counts, positions, weights, inv_window, channel, offsets, power, k_base, fallback, out):
+    """The module's sum for every full-resolution pixel; ``out`` ``(2h, 2w, 3)`` float32.
+
+    Cell by cell: a window's position is the cell's, so the four pixels of the cell and the four planes share the
+    Gaussian's separable factors ``exp(−k dy²)`` and ``exp(−k dx²)`` (``k = 1/(2σ²)`` of red and blue), three
+    row and three column offsets ``e = r − o ∈ {−1, 0, 1}`` (pixel parity minus plane offset) with two sites each;
+    a plane whose colour has ``m`` planes takes their ``m``-th power (``σ_c = σ/√m``): 12 exponentials per window
+    and cell instead of 64.
+    """
+    n, nc, h, w = counts.shape
+    for cy in prange(h):
+        num = np.zeros((2, 2, 3))
+        den = np.zeros((2, 2, 3))
+        fy = np.zeros(3, np.int64)
+        fx = np.zeros(3, np.int64)
+        gy = np.zeros((3, 2))
+        gx = np.zeros((3, 2))
+        for cx in range(w):
+            num[:] = 0.0
+            den[:] = 0.0
+            for j in range(n):
+                wj = weights[j, cy, cx]
+                py = positions[j, 0, cy, cx]
+                px = positions[j, 1, cy, cx]
+                if not wj > 0.0 or np.isnan(py) or np.isnan(px):
+                    continue
+                for ei in range(3):  # e = ei − 1
+                    e = ei - 1.0
+                    fy[ei] = int(np.floor(py + 0.5 * e))
+                    fx[ei] = int(np.floor(px + 0.5 * e))
+                    for a in range(2):
+                        dy = 2.0 * (fy[ei] + a) - 2.0 * py - e
+                        dx = 2.0 * (fx[ei] + a) - 2.0 * px - e
+                        gy[ei, a] = np.exp(-k_base * dy * dy)
+                        gx[ei, a] = np.exp(-k_base * dx * dx)
+                for c in range(nc):
+                    oy = offsets[c, 0]
+                    ox = offsets[c, 1]
+                    ch = channel[c]
+                    m = power[c]
+                    for ry in range(2):
+                        ey = ry - oy + 1
+                        for rx in range(2):
+                            ex = rx - ox + 1
+                            acc = 0.0
+                            wsum = 0.0
+                            for a in range(2):
+                                qy = fy[ey] + a
+                                if qy < 0 or qy >= h:
+                                    continue
+                                for b in range(2):
+                                    qx = fx[ex] + b
+                                    if qx < 0 or qx >= w:
+                                        continue
+                                    g = gy[ey, a] * gx[ex, b]
+                                    if m == 2:
+                                        g = g * g
+                                    elif m != 1:
+                                        g = g ** m
+                                    acc += g * counts[j, c, qy, qx]
+                                    wsum += g
+                            num[ry, rx, ch] += wj * acc
+                            den[ry, rx, ch] += wj * wsum
+            for ry in range(2):
+                for rx in range(2):
+                    yy = 2 * cy + ry
+                    xx = 2 * cx + rx
+                    for ch in range(3):
+                        if den[ry, rx, ch] > 0.0:
+                            out[yy, xx, ch] = num[ry, rx, ch] * inv_window / den[ry, rx, ch]
+                        else:
+                            out[yy, xx, ch] = fallback[yy, xx, ch]
+
+
+def plane_channels(cfa: str) -> np.ndarray:
+    """The colour (0 R, 1 G, 2 B) of each Bayer plane of ``cfa`` (``"RGGB"`` …), in :data:`PLANE_OFFSETS` order."""
+    if not isinstance(cfa, str) or len(cfa) != 4 or sorted(cfa.upper()) != ["B", "G", "G", "R"]:
+        raise ValueError(f"cfa must be a 2×2 Bayer pattern such as 'RGGB'; got {cfa!r}")
+    return np.array(["RGB".index(ch) for ch in cfa.upper()], np.int64)
+
+
+def plane_sigmas(channel: np.ndarray, sigma: float) -> np.ndarray:
+    """``σ_c`` of each plane: ``σ / √m``, ``m`` the planes of its colour (1 for red and blue, 2 for green: the green
+    sites lie √2 apart, the red and the blue ones 2)."""
+    channel = np.asarray(channel)
+    return np.array([sigma / np.sqrt(np.count_nonzero(channel == ch)) for ch in channel])
+
+
+def multiframe_demosaic(counts, positions, weights, window: float, cfa: str, fallback,
+                        params: MultiframeParams = MultiframeParams()) -> np.ndarray:
+    """The reference frame in full-resolution RGB from every merged window's raw Bayer samples (module doc).
+
+    Parameters
+    ----------
+    counts : ndarray ``(n, 4, h, w)`` float
+        Each window's count (or charge) per Bayer plane (:func:`spikeref.bayer.bayer_planes`).
+    positions : ndarray ``(n, 2, h, w)`` float
+        Where each cell's content is in window ``j``, ``(y, x)`` in plane pixels; NaN: nowhere (not used).
+    weights : ndarray ``(n, h, w)`` float ≥ 0
+        Each window's weight per cell (the robust merge's final weights).
+    window : float
+        ``W``, the planes each window integrates (rates are ``counts / W``).
+    cfa : str
+        The colour filter array (``"RGGB"``, ``"BGGR"``, ``"GRBG"``, ``"GBRG"``).
+    fallback : ndarray ``(2h, 2w, 3)`` float
+        What a pixel takes where no sample of a colour has weight (the pipeline: ``Ψ`` of the merged planes).
+    params : MultiframeParams
+
+    Returns
+    -------
+    ndarray ``(2h, 2w, 3) float32``
+        Rates (spikes per readout), linear RGB.
+    """
+    c = np.asarray(counts)
+    if c.ndim != 4 or c.shape[1] != 4 or not np.issubdtype(c.dtype, np.number):
+        raise ValueError(f"counts must be (n, 4, h, w) numbers; got shape {c.shape}")
+    n, _, h, w = c.shape
+    pos = np.asarray(positions)
+    if pos.shape != (n, 2, h, w):
+        raise ValueError(f"positions must have shape ({n}, 2, {h}, {w}); got {pos.shape}")
+    wt = np.asarray(weights)
+    if wt.shape != (n, h, w) or not np.all(np.isfinite(wt)) or wt.min(initial=0.0) < 0:
+        raise ValueError(f"weights must be finite, non-negative, of shape ({n}, {h}, {w}); got {wt.shape}")
+    finite_number(window, "window", positive=True)
+    channel = plane_channels(cfa)
+    fb = np.asarray(fallback)
+    if fb.shape != (2 * h, 2 * w, 3):
+        raise ValueError(f"fallback must have shape ({2 * h}, {2 * w}, 3); got {fb.shape}")
+    if not isinstance(params, MultiframeParams):
+        raise TypeError(f"params must be a MultiframeParams; got {type(params).__name__}")
+    out = np.empty((2 * h, 2 * w, 3), np.float32)
+    power = np.array([np.count_nonzero(channel == ch) for ch in channel], np.int64)  # σ_c² = σ² / m_c
+    _multiframe_kernel(np.ascontiguousarray(c, dtype=np.float32), np.ascontiguousarray(pos, dtype=np.float32),
+                       np.ascontiguousarray(wt, dtype=np.float32), 1.0 / float(window), channel,
+                       np.array(PLANE_OFFSETS, np.int64), power, 1.0 / (2.0 * params.sigma ** 2),
+                       np.ascontiguousarray(fb, dtype=np.float32), out)
+    return out
+
+
+def shrink_increment(rgb, base, box: int = SHRINK_BOX) -> np.ndarray:
+    """``base + g (rgb − base)``, the increment kept by a local Wiener gain (module doc).
+
+    Parameters
+    ----------
+    rgb, base : ndarray ``(H, W, 3)`` float
+        The gathered frame (:func:`multiframe_demosaic`) and ``Ψ`` of the merged planes.
+    box : int
+        Odd side of the box of the increment's local energy, full-resolution pixels.
+
+    Returns
+    -------
+    ndarray ``(H, W, 3) float32``
+        ``base + g d`` with ``d = rgb − base`` and ``g = clip(1 − σ_ch² / box(d²), 0, 1)`` per pixel and colour
+        (``σ_ch`` :func:`~spikeref.denoise.guard.noise_sigma` of ``d``'s colour; ``box`` SciPy's ``uniform_filter``,
+        ``mode="reflect"``; ``g = 0`` where ``box(d²) = 0``).
+    """
+    a = np.asarray(rgb, dtype=np.float64)
+    b = np.asarray(base, dtype=np.float64)
+    if a.ndim != 3 or a.shape[-1] != 3 or b.shape != a.shape:
+        raise ValueError(f"rgb and base must be (H, W, 3) of one shape; got {a.shape} and {b.shape}")
+    if isinstance(box, bool) or not isinstance(box, (int, np.integer)) or box < 1 or box % 2 == 0:
+        raise ValueError(f"box must be an odd whole number ≥ 1; got {box!r}")
+    d = (a - b).transpose(2, 0, 1)
+    s2 = noise_sigma(d)[:, None, None] ** 2
+    energy = uniform_filter(d * d, size=(1, box, box), mode="reflect")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gain = np.where(energy > 0, np.clip(1.0 - s2 / np.where(energy > 0, energy, 1.0), 0.0, 1.0), 0.0)
+    return (b + (gain * d).transpose(1, 2, 0)).astype(np.float32)
