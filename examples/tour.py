@@ -519,8 +519,8 @@ near the tips (the 99th percentile of step 0's flow inside the blades' circle, i
 On this fast fan the steps gain little: {paper_db} dB for `R_0 … R_{L}` over the frame, {blades_db} dB
 inside the blades' circle, and the plain HDR+ search finds motion on the still background at the
 later steps.  The package's defaults (each window's charge instead of its count, the noise-aware
-search, flows on smoothed frames, the composed warp with the adaptive merge and the guard; `ReconstructParams()`) give
-{ours_db} dB for the same steps.
+search, flows on smoothed frames, the composed warp with the adaptive merge, the guard and, for the last step, the
+multi-frame demosaic instead of Ψ; `ReconstructParams()`) give {ours_db} dB for the same steps.
 """
     return text, frame
 
