@@ -320,7 +320,7 @@ class FrameRings:
         n, reach = counts.shape[0], p.reach
         weights = [kept]  # Eq. 14–15's path counts: the core windows' base weights
         samples = [samples]
-        multiframe = p.demosaic_used == "multiframe"
+        multiframe = p.demosaic_used == "multiframe" and bool(self.stream.cfa)  # a monochrome stream has no demosaic
         raw, where = [counts], [pos]  # each window's own planes and where each cell's content is in it
         offset, shells = 0, ()
         if merge == "adaptive":  # the windows beyond, each way, reached by chaining step-0 flows from the ends
@@ -376,7 +376,7 @@ class FrameRings:
         denoiser's change ``Ψ[D(I_L) − I_L]``."""
         L = self.p.L
         denoised = self.denoised(L, k)
-        inputs = self.multiframe.pop(k, None) if self.stream.cfa else None
+        inputs = self.multiframe.pop(k, None)
         if inputs is None:
             return self.finish(denoised).astype(np.float32, copy=False)
         merged = self.planes(L, k)
