@@ -62,10 +62,11 @@ from scipy.ndimage import uniform_filter
 
 from spikeref._checks import finite_number
 from spikeref._jit import njit, prange
+from spikeref.bayer import cfa_channels
 from spikeref.denoise.guard import noise_sigma
 
-__all__ = ["MultiframeParams", "multiframe_demosaic", "shrink_increment", "plane_channels", "plane_sigmas",
-           "PLANE_OFFSETS", "SHRINK_BOX"]
+__all__ = ["MultiframeParams", "multiframe_demosaic", "shrink_increment", "plane_channels", "colour_planes",
+           "plane_sigmas", "PLANE_OFFSETS", "SHRINK_BOX"]
 
 #: Side (full-resolution pixels) of the box over which :func:`shrink_increment` measures the increment's energy.
 SHRINK_BOX = 5
@@ -148,10 +149,8 @@ def _multiframe_kernel(counts, positions, weights, inv_window, channel, offsets,
                                     if qx < 0 or qx >= w:
                                         continue
                                     g = gy[ey, a] * gx[ex, b]
-                                    if m == 2:
+                                    if m == 2:  # green (a Bayer colour has one or two planes)
                                         g = g * g
-                                    elif m != 1:
-                                        g = g ** m
                                     acc += g * counts[j, c, qy, qx]
                                     wsum += g
                             num[ry, rx, ch] += wj * acc
@@ -168,17 +167,21 @@ def _multiframe_kernel(counts, positions, weights, inv_window, channel, offsets,
 
 
 def plane_channels(cfa: str) -> np.ndarray:
-    """The colour (0 R, 1 G, 2 B) of each Bayer plane of ``cfa`` (``"RGGB"`` …), in :data:`PLANE_OFFSETS` order."""
-    if not isinstance(cfa, str) or len(cfa) != 4 or sorted(cfa.upper()) != ["B", "G", "G", "R"]:
-        raise ValueError(f"cfa must be a 2×2 Bayer pattern such as 'RGGB'; got {cfa!r}")
-    return np.array(["RGB".index(ch) for ch in cfa.upper()], np.int64)
+    """The colour (0 R, 1 G, 2 B) of each Bayer plane of ``cfa`` (``"RGGB"`` …), in :data:`PLANE_OFFSETS` order:
+    :func:`spikeref.bayer.cfa_channels` as the kernel's ``int64`` array."""
+    return np.array(cfa_channels(cfa), np.int64)
+
+
+def colour_planes(channel: np.ndarray) -> np.ndarray:
+    """``m_c`` of each plane: how many planes carry its colour (1 for red and blue, 2 for green)."""
+    channel = np.asarray(channel)
+    return np.array([np.count_nonzero(channel == ch) for ch in channel], np.int64)
 
 
 def plane_sigmas(channel: np.ndarray, sigma: float) -> np.ndarray:
-    """``σ_c`` of each plane: ``σ / √m``, ``m`` the planes of its colour (1 for red and blue, 2 for green: the green
-    sites lie √2 apart, the red and the blue ones 2)."""
-    channel = np.asarray(channel)
-    return np.array([sigma / np.sqrt(np.count_nonzero(channel == ch)) for ch in channel])
+    """``σ_c`` of each plane: ``σ / √m_c`` (:func:`colour_planes`; the green sites lie √2 apart, the red and the blue
+    ones 2)."""
+    return sigma / np.sqrt(colour_planes(channel))
 
 
 def multiframe_demosaic(counts, positions, weights, window: float, cfa: str, fallback,
@@ -224,10 +227,9 @@ def multiframe_demosaic(counts, positions, weights, window: float, cfa: str, fal
     if not isinstance(params, MultiframeParams):
         raise TypeError(f"params must be a MultiframeParams; got {type(params).__name__}")
     out = np.empty((2 * h, 2 * w, 3), np.float32)
-    power = np.array([np.count_nonzero(channel == ch) for ch in channel], np.int64)  # σ_c² = σ² / m_c
     _multiframe_kernel(np.ascontiguousarray(c, dtype=np.float32), np.ascontiguousarray(pos, dtype=np.float32),
                        np.ascontiguousarray(wt, dtype=np.float32), 1.0 / float(window), channel,
-                       np.array(PLANE_OFFSETS, np.int64), power, 1.0 / (2.0 * params.sigma ** 2),
+                       np.array(PLANE_OFFSETS, np.int64), colour_planes(channel), 1.0 / (2.0 * params.sigma ** 2),
                        np.ascontiguousarray(fb, dtype=np.float32), out)
     return out
 

@@ -218,7 +218,7 @@ class ReconstructParams:
                 self.support < self.reach:
             raise ValueError(f"support must be a whole number of windows ≥ L·(K−1)/2 = {self.reach}; "
                              f"got {self.support!r}")
-        if self.demosaic == "multiframe" and (self.merge_used == "binomial" or not self.align or self.half == 0):
+        if self.demosaic == "multiframe" and not self.merges_windows_robustly:
             raise ValueError(f"demosaic='multiframe' needs the robust or adaptive merge of aligned windows (the merge "
                              f"here is {self.merge_used!r}{'' if self.align and self.half else ', without alignment'})")
 
@@ -228,7 +228,13 @@ class ReconstructParams:
         robust or adaptive one of aligned windows, else ``"bilinear"``, Eq. 13's Ψ)."""
         if self.demosaic != "auto":
             return self.demosaic
-        return "multiframe" if self.merge_used != "binomial" and self.align and self.half > 0 else "bilinear"
+        return "multiframe" if self.merges_windows_robustly else "bilinear"
+
+    @property
+    def merges_windows_robustly(self) -> bool:
+        """Whether the output is the robust or adaptive merge of aligned windows (what the multi-frame demosaic
+        reads: each window's final weight and position)."""
+        return self.merge_used != "binomial" and self.align and self.half > 0
 
     @property
     def merge_used(self) -> str:

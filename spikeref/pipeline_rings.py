@@ -333,17 +333,17 @@ class FrameRings:
                 flows = np.stack([self.step0_flows(j - step)[p.half + step] for j in js])  # F_0(j − step, j)
                 more_counts = np.stack([self.window_counts(j) for j in js])
                 with self.timed("warp"):
-                    more, ok, more_pos = chained_samples(more_counts, end, flows, p.window, positions=True)
+                    more, ok, *more_pos = chained_samples(more_counts, end, flows, p.window, positions=multiframe)
                 if step > 0:
                     samples.append(more)
                     weights.append(ok)
                     raw.append(more_counts)
-                    where.append(more_pos)
+                    where += more_pos
                 else:
                     samples.insert(0, more[::-1])
                     weights.insert(0, ok[::-1])
                     raw.insert(0, more_counts[::-1])
-                    where.insert(0, more_pos[::-1])
+                    where[:0] = [moved[::-1] for moved in more_pos]
                     offset = len(js)
         samples, weights = np.concatenate(samples), np.concatenate(weights)
         core = np.zeros(samples.shape[0], bool)
@@ -351,12 +351,12 @@ class FrameRings:
         with self.timed("warp"):
             reference = counts[reach].astype(np.float64) / p.window
             noise = np.stack([local_noise(plane) for plane in reference])
-            est, windows, final = robust_merge(samples, weights, noise, offset + reach, core,
-                                               MergeParams(shells=shells, window=float(p.window)),
-                                               check=False, final_weights=True)
+            est, windows, *final = robust_merge(samples, weights, noise, offset + reach, core,
+                                                MergeParams(shells=shells, window=float(p.window)),
+                                                check=False, final_weights=multiframe)
         self.merge_windows[k] = windows
         if multiframe:
-            self.multiframe[k] = (np.concatenate(raw), np.concatenate(where), final)
+            self.multiframe[k] = (np.concatenate(raw), np.concatenate(where), final[0])
         return est
 
     # output ------------------------------------------------------------

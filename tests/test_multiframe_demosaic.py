@@ -5,9 +5,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from spikeref.bayer import demosaic_bilinear
+from spikeref.bayer import bayer_mosaic, bayer_planes, demosaic_bilinear
 from spikeref.multiframe_demosaic import MultiframeParams, multiframe_demosaic, plane_channels, plane_sigmas
 from spikeref.oracles.multiframe_demosaic import multiframe_demosaic_oracle
+from spikeref.simulate.camera import mosaic_radiance
 
 CFAS = ("RGGB", "BGGR", "GRBG", "GBRG")
 
@@ -26,16 +27,6 @@ def test_the_kernel_is_its_oracle(seed, cfa, n):
     got = multiframe_demosaic(counts, positions, weights, 10.0, cfa, fallback)
     want = multiframe_demosaic_oracle(counts, positions, weights, 10.0, cfa, fallback)
     np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-6)
-
-
-def _mosaic_planes(rgb, cfa):
-    """Bayer planes of an RGB image under ``cfa`` (each site keeps its own colour)."""
-    ch = plane_channels(cfa)
-    h, w = rgb.shape[0] // 2, rgb.shape[1] // 2
-    planes = np.empty((4, h, w), np.float32)
-    for p, (oy, ox) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
-        planes[p] = rgb[oy::2, ox::2, ch[p]]
-    return planes
 
 
 @pytest.mark.parametrize("cfa", CFAS)
@@ -69,22 +60,16 @@ def test_windows_at_the_four_phases_recover_what_one_mosaic_misses():
     for dy, dx in ((0, 0), (0, 1), (1, 0), (1, 1)):
         # the scene moved by (dy, dx): the reference pixel X is at X + (dy, dx) in window j
         seen = big[1 - dy: 1 - dy + 2 * h, 1 - dx: 1 - dx + 2 * w]
-        counts.append(_mosaic_planes(seen, "RGGB") * 10)
+        counts.append(bayer_planes(mosaic_radiance(seen, "RGGB"), "RGGB") * 10)
         positions.append(np.stack([yy + dy / 2, xx + dx / 2]))
     weights = np.ones((4, h, w), np.float32)
     got = multiframe_demosaic(np.stack(counts), np.stack(positions), weights, 10.0, "RGGB",
                               np.zeros((2 * h, 2 * w, 3)))
-    one = demosaic_bilinear(bayer_planes_to_mosaic(counts[0] / 10), "RGGB")
+    one = demosaic_bilinear(bayer_mosaic(counts[0] / 10, "RGGB"), "RGGB")
     inner = (slice(2, -2), slice(2, -2))
     err_multi = np.sqrt(np.mean((got[inner] - truth[inner]) ** 2))
     err_one = np.sqrt(np.mean((one[inner] - truth[inner]) ** 2))
     assert err_multi < 0.6 * err_one  # 0.148 against 0.273 (seed 2): the neighbours at 1 px still weigh in
-
-
-def bayer_planes_to_mosaic(planes):
-    from spikeref.bayer import bayer_mosaic
-
-    return bayer_mosaic(planes, "RGGB")
 
 
 def test_the_fallback_where_no_window_has_weight_and_nan_positions_are_skipped():
