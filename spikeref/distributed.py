@@ -130,14 +130,15 @@ def _numba_threads() -> int:
 
 def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, chunk: Chunk, exr_dir: str,
                       weights=None, half: bool = False, skip=(), guard: str = "sure", shrink: bool = True,
-                      hot_pixels=None) -> dict:
+                      hot_pixels=None, dark_level=None) -> dict:
     """Reconstruct one chunk and write its EXR frames; runs on a worker (or anywhere).
 
     ``weights``, ``guard`` and ``shrink`` make the denoiser as :meth:`Denoiser.load` does (the
     bundled network for ``params.accumulate`` when ``weights`` is None).  ``hot_pixels`` is a map to
     replace (``(H, W) bool``); without one, ``params.hot_pixels="auto"`` finds them in the whole
     recording's first planes, as a single run does, so every chunk replaces the same pixels
-    (:func:`spikeref.hot_pixels.hot_pixels_to_replace`).
+    (:func:`spikeref.hot_pixels.hot_pixels_to_replace`).  ``dark_level`` ``(4,)``, if given, is subtracted from
+    every frame (:class:`spikeref.pipeline.Reconstructor`).
 
     ``skip`` lists frames of the chunk already on disk (``--resume``: the caller vetted them
     with :func:`spikeref.render.frames_on_disk`, so the task reads no EXR file).
@@ -170,7 +171,7 @@ def reconstruct_chunk(path: str, open_kwargs: dict, params: ReconstructParams, c
         view = stream.slice(chunk.first_plane, stop_plane)
         shift = chunk.first_plane // params.window  # frame k of the recording is frame k − shift of the view
         den = _denoiser(weights, params.mode, params.accumulate, guard, shrink) if params.denoise else None
-        rec = Reconstructor(view, replace(params, hot_pixels="off"), den, hot_pixels=hot)
+        rec = Reconstructor(view, replace(params, hot_pixels="off"), den, hot_pixels=hot, dark_level=dark_level)
         for a, b in todo:
             for frame in rec.frames(a - shift, b - shift):
                 write_exr(out / exr_name(frame.index + shift), frame.rgb, half=half)
@@ -197,7 +198,8 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
                             weights=None, frames: range | None = None, chunk_frames: int = 64,
                             workers: int | None = None, scheduler: str | None = None, client=None,
                             resume: bool = False, half: bool = False, progress: bool = True,
-                            guard: str = "sure", shrink: bool = True, hot_pixels=None) -> list[dict]:
+                            guard: str = "sure", shrink: bool = True, hot_pixels=None,
+                            dark_level=None) -> list[dict]:
     """Reconstruct ``frames`` of the spike file ``path`` into ``exr_dir`` on a Dask cluster.
 
     Parameters
@@ -240,6 +242,9 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         none); without one, ``params.hot_pixels="auto"``
         finds them here, once, in the recording's first planes (as a single run does) and every chunk
         replaces the same ones.
+    dark_level : array_like ``(4,)``, optional
+        The sensor's dark level, subtracted from every frame (``spikeref calibrate``;
+        :class:`spikeref.pipeline.Reconstructor`).
 
     Returns
     -------
@@ -269,7 +274,8 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
     stream = open_spike_file(path, **open_kwargs)  # errors about the input surface here, before any task
     hot_pixels = hot_pixels_to_replace(stream, params.hot_pixels, hot_pixels)  # found once, for every chunk
     params = replace(params, hot_pixels="off")  # the chunks replace this map and search for none
-    avail = Reconstructor(stream, params, denoiser=lambda p: p, hot_pixels=hot_pixels).frames_available
+    avail = Reconstructor(stream, params, denoiser=lambda p: p, hot_pixels=hot_pixels,
+                          dark_level=dark_level).frames_available  # checks the dark level here, not on a worker
     frames = avail if frames is None else frames
     if frames.start < avail.start or frames.stop > avail.stop or frames.start >= frames.stop:
         raise ValueError(f"frames {frames.start}:{frames.stop} are outside this stream's frames "
@@ -288,7 +294,7 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
         client, own = _make_client(workers, scheduler)
     try:
         return _run(client, chunks, str(path), open_kwargs, params, str(exr_dir), weights, half, done, progress,
-                    (guard, shrink), hot_pixels)
+                    (guard, shrink), hot_pixels, dark_level)
     finally:
         if own is not None:
             client.close()
@@ -296,7 +302,7 @@ def reconstruct_distributed(path, exr_dir, params: ReconstructParams | None = No
 
 
 def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done, progress, options,
-         hot_pixels) -> list[dict]:
+         hot_pixels, dark_level=None) -> list[dict]:
     from dask.distributed import as_completed
     from tqdm import tqdm
 
@@ -307,7 +313,8 @@ def _run(client, chunks, path, open_kwargs, params, exr_dir, weights, half, done
     for c in chunks:
         skip = tuple(k for k in range(c.start, c.stop) if k in done)
         f = client.submit(reconstruct_chunk, path, open_kwargs, params, c, exr_dir, weights, half, skip, *options,
-                          hot_pixels=hot_pixels, key=f"spikeref-chunk-{c.index}-{os.getpid()}-{time.time_ns()}",
+                          hot_pixels=hot_pixels, dark_level=dark_level,
+                          key=f"spikeref-chunk-{c.index}-{os.getpid()}-{time.time_ns()}",
                           pure=False)
         submitted[f.key] = c
         futures.append(f)

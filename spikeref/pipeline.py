@@ -87,6 +87,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from spikeref.align import AlignParams
+from spikeref.dark_level import check_dark_level, subtract_dark_level
 from spikeref.denoise.denoiser import Denoiser, bundled_weights
 from spikeref.hot_pixels import HotPixelRepair, hot_pixels_to_replace
 from spikeref.pipeline_params import (
@@ -173,10 +174,15 @@ class Reconstructor:
         :func:`spikeref.hot_pixels.load_hot_pixel_map`), whatever ``params.hot_pixels`` says; by default
         they are found in the stream with ``params.hot_pixels="auto"``.  :attr:`hot_pixel_mask` holds
         the map in use (``None``: none replaced).
+    dark_level : array_like ``(4,)``, optional
+        The sensor's dark level per 2×2 phase, spikes per readout (Eq. 9's ``E[N]/W``, measured on a dark
+        recording: :func:`spikeref.dark_level.measure_dark_level`, ``spikeref calibrate``): subtracted from every
+        output frame and step, clipped at 0 (:func:`spikeref.dark_level.subtract_dark_level`).  Default none:
+        the frames are ``E[I_c]`` as the paper's.
     """
 
     def __init__(self, stream: SpikeStream, params: ReconstructParams | None = None, denoiser=None,
-                 hot_pixels=None):
+                 hot_pixels=None, dark_level=None):
         if not isinstance(stream, SpikeStream):
             raise TypeError(f"stream must be a SpikeStream (see spikeref.read_dat); got {type(stream).__name__}")
         self.stream = stream
@@ -207,6 +213,8 @@ class Reconstructor:
         #: the hot pixels replaced in every window ``(H, W) bool``, or None (:mod:`spikeref.hot_pixels`)
         self.hot_pixel_mask = hot_pixels_to_replace(stream, p.hot_pixels, hot_pixels)
         self._repair = HotPixelRepair(self.hot_pixel_mask) if self.hot_pixel_mask is not None else None
+        #: the dark level subtracted from every frame ``(4,)``, or None (:mod:`spikeref.dark_level`)
+        self.dark_level = None if dark_level is None else check_dark_level(dark_level)
 
     def _make_denoiser(self, denoiser) -> Callable[[np.ndarray, float, bool], np.ndarray] | None:
         """``D`` as the rings call it, or None with ``denoise=False`` (D is the identity: no network, no weights)."""
@@ -300,6 +308,9 @@ class Reconstructor:
         for k in range(start, stop):
             t0 = time.perf_counter()
             frame = state.output(k, keep_steps)
+            if self.dark_level is not None:
+                frame.rgb = subtract_dark_level(frame.rgb, self.dark_level, self.stream.cfa)
+                frame.steps = [subtract_dark_level(s, self.dark_level, self.stream.cfa) for s in frame.steps]
             state.evict(k + 1)
             self.busy_seconds += time.perf_counter() - t0
             self.frames_made += 1

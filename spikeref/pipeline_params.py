@@ -113,13 +113,14 @@ class ReconstructParams:
     demosaic : {"auto", "multiframe", "bilinear", "mhc"}
         The output frame's demosaic: ``"multiframe"`` — every merged window's raw Bayer samples gathered at full
         resolution with the merge's weights, so that the windows' sub-pixel motion fills in what one mosaic
-        does not sample (:mod:`spikeref.multiframe_demosaic`; not in the paper; the denoiser's change of the
+        does not sample, plus the Malvar–He–Cutler correction where the windows sampled only the reference's
+        CFA phases (:mod:`spikeref.multiframe_demosaic`; not in the paper; the denoiser's change of the
         merged planes is added through Ψ); Ψ of the merged frame (``"bilinear"``, Eq. 13) or Malvar–He–Cutler
         (``"mhc"``, :mod:`spikeref.demosaic`; sharper, not in the paper).  ``"auto"`` (default) is
         ``"multiframe"`` where the merge is the robust or adaptive one (:attr:`merge_used`) of aligned windows,
-        else ``"bilinear"`` (:attr:`demosaic_used`): on the benchmark / held-out means +0.77 / +1.33 dB, up to
-        +3 dB on moving photographs, −0.46 dB in low light and −0.2 dB on the embedded sample, at about half the
-        frames/s (``docs/results.md``, "The multi-frame demosaic").
+        else ``"bilinear"`` (:attr:`demosaic_used`): on the benchmark / held-out means 30.96 / 30.65 dB against
+        Ψ's 28.82 / 28.58, −0.7 dB in low light and −0.4 dB on the embedded sample, at about half the frames/s
+        (``docs/results.md``, "Where the windows add no phase, and the dark level").
         Monochrome recordings have no demosaic.  The flows always use the 2×2 luma.
     accumulate : {"charge", "count"}
         What each window contributes: the charge its pixels integrated, read from the spike times

@@ -738,6 +738,56 @@ def test_calibrate_then_reconstruct_and_denoise_with_the_map(tmp_path, capsys):
     assert "hot pixels" not in capsys.readouterr().err
 
 
+@pytest.mark.filterwarnings("ignore:.*too small for the alignment pyramid")
+def test_calibrate_measures_the_dark_level_and_reconstruct_subtracts_it(tmp_path, capsys):
+    """A dark recording firing 0.05 spikes per readout everywhere (and three hot pixels, left out): the map holds
+    that level per phase, and ``--dark-level`` takes it off every frame (recorded for ``--resume``)."""
+    from spikeref.io.dat import sidecar_path
+
+    rng = np.random.default_rng(11)
+    dark_spikes = (rng.random((400, 32, 32)) < 0.05).astype(np.uint8)
+    dark_spikes[:, 5, 6] = 1  # hot: fires every readout
+    dark = tmp_path / "dark.dat"
+    write_dat(dark, dark_spikes)
+    sidecar_path(dark).write_text(json.dumps({"height": 32, "width": 32, "cfa": "RGGB"}))
+    scene, _ = _hot_dat(tmp_path, False, "scene.dat")
+    cal = tmp_path / "cal.npz"
+    assert main(["calibrate", str(dark), "-o", str(cal), "--planes", "400"]) == 0
+    out = capsys.readouterr().out
+    assert "1 hot pixels" in out and "dark level (Eq. 9's E[N]/W" in out
+    level = np.load(cal)["dark_level"]
+    # 256 pixels a phase × 400 readouts at 0.05: a binomial standard error of 0.0007
+    np.testing.assert_allclose(level, 0.05, atol=0.004)
+    common = [str(scene), "-L", "1", "--no-denoiser", "--frames", "1:2", "--hot-pixels", "off"]
+    assert main(["reconstruct", *common, "--exr-dir", str(tmp_path / "a")]) == 0
+    assert main(["reconstruct", *common, "--dark-level", str(cal), "--exr-dir", str(tmp_path / "b")]) == 0
+    from spikeref.io.exr import read_exr
+    from spikeref.dark_level import subtract_dark_level
+
+    plain, dark_taken = read_exr(tmp_path / "a" / "frame_000001.exr"), read_exr(tmp_path / "b" / "frame_000001.exr")
+    np.testing.assert_allclose(dark_taken, subtract_dark_level(plain, level, "RGGB"), atol=1e-6)
+    record = json.loads((tmp_path / "b" / "spikeref_run.json").read_text())
+    np.testing.assert_allclose(record["dark_level"], level)
+    assert "dark_level" not in json.loads((tmp_path / "a" / "spikeref_run.json").read_text())
+
+
+@pytest.mark.parametrize("value, message", [
+    ("map.txt", "--dark-level must be a calibration map .npz"),
+    ("nope.npz", "--dark-level nope.npz: no such file (make one with spikeref calibrate"),
+    ("old.npz", "no dark level in this map"),
+])
+def test_bad_dark_level_maps_are_refused_in_one_line(tmp_path, capsys, monkeypatch, value, message):
+    from spikeref.hot_pixels import save_hot_pixel_map
+
+    monkeypatch.chdir(tmp_path)
+    save_hot_pixel_map(tmp_path / "old.npz", np.zeros((32, 32), bool))
+    scene, _ = _hot_dat(tmp_path, False, "scene.dat")
+    assert main(["reconstruct", str(scene), "--dark-level", value, "-L", "1", "--exr-dir", "x"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "x").exists()
+
+
 @pytest.mark.parametrize("value, message", [
     ("map.txt", "--hot-pixels must be auto, off or a map .npz"),
     ("nope.npz", "no such file (make one with spikeref calibrate"),

@@ -33,6 +33,7 @@ LAYERS = {
     "spikeref.noise_level": 2,
     "spikeref.cfa_detect": 2,
     "spikeref.hot_pixels": 2,
+    "spikeref.dark_level": 2,
     "spikeref.metrics": 2,
     "spikeref.tonemap": 2,
     "spikeref.baselines": 3,

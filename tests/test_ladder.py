@@ -163,3 +163,27 @@ def test_support_rung_drops_what_the_exact_motion_hides():
     kept = true_flow_frame(counts, Hidden(), 10, 0, 1, np.ones(3), visible_only=True)
     mixed = true_flow_frame(counts, Hidden(), 10, 0, 1, np.ones(3))
     assert np.allclose(kept, 0.5) and np.allclose(mixed, (0.5 + 0.9 + 0.9) / 3)
+
+
+def test_the_dark_calibration_takes_the_sensors_floor_off_every_noisy_rung():
+    """The translation's sensor fires 0.002 spikes per readout without light (Eq. 6, γ = 0.002): calibrated on its
+    own dark recording, ours and TFP gain, the limit (noise-free) is the same."""
+    from spikeref.simulate.scenes import load_scene
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "spikeref" / "bench" / "scenes" / "2_translation.toml"
+    sc = BenchScene("translation", path, load_scene(path, overrides={"planes": 120}))
+    level = sc.dark_calibration(0, 2000)["dark_level"]
+    # 4096 pixels a phase × 2000 readouts at 0.002 (+ 5 % of pixels at 1/2000 of inherent noise): ±2 %
+    np.testing.assert_allclose(level, 0.002 + 0.05 / 2000, rtol=0.06)
+    rungs = ("tfp", "ours", "limit")
+    plain = {r["rung"]: r["psnr"] for r in run_ladder([sc], frames=1, rungs=rungs, peers=(), progress=False)["rows"]}
+    res = run_ladder([sc], frames=1, rungs=rungs, peers=(), progress=False, dark_calibration=True)
+    dark = {r["rung"]: r["psnr"] for r in res["rows"]}
+    assert res["dark_calibration"] and dark["limit"] == plain["limit"]
+    assert dark["ours"] > plain["ours"] + 0.1 and dark["tfp"] > plain["tfp"], (plain, dark)
+
+
+def test_the_dark_calibration_is_for_the_ladder_only(tmp_path, capsys):
+    assert main(["bench", "--dark-calibration", "--quick", "--out", str(tmp_path / "o")]) == 2
+    assert "--dark-calibration applies to --ladder only" in capsys.readouterr().err

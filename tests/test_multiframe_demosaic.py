@@ -137,3 +137,43 @@ def test_the_increment_is_kept_where_it_is_detail_and_dropped_where_it_is_noise(
         shrink_increment(base, base, box=4)
     with pytest.raises(ValueError, match="rgb and base"):
         shrink_increment(base, base[:, :, :2])
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2 ** 31 - 1), st.integers(1, 5))
+def test_phase_diversity_is_its_oracle(seed, n):
+    from spikeref.multiframe_demosaic import phase_diversity
+    from spikeref.oracles.multiframe_demosaic import phase_diversity_oracle
+
+    rng = np.random.default_rng(seed)
+    h, w = 3, 4
+    yy, xx = np.mgrid[0:h, 0:w]
+    positions = (np.stack([yy, xx])[None] + rng.uniform(-2.5, 2.5, size=(n, 2, h, w))).astype(np.float32)
+    positions = np.where((rng.random((n, h, w)) < 0.15)[:, None], np.float32(np.nan), positions)
+    weights = (rng.random((n, h, w)) * (rng.random((n, h, w)) > 0.2)).astype(np.float32)
+    got = phase_diversity(positions, weights)
+    np.testing.assert_allclose(got, phase_diversity_oracle(positions, weights), rtol=1e-9, atol=1e-12)
+    assert got.min() >= 0 and got.max() <= 1
+
+
+def test_phase_diversity_is_zero_on_the_reference_lattice_and_one_a_pixel_off():
+    from spikeref.multiframe_demosaic import phase_diversity
+
+    h, w = 2, 3
+    grid = np.mgrid[0:h, 0:w].astype(np.float64)[None]
+    ones = np.ones((3, h, w))
+    # whole plane pixels (two full-resolution pixels) keep the CFA phase: no diversity, whatever the weights
+    still = grid + np.array([0.0, 1.0, -2.0])[:, None, None, None]
+    np.testing.assert_array_equal(phase_diversity(still, ones), 0.0)
+    # half a plane pixel is one full-resolution pixel: the other phase, capped at 1 on a diagonal
+    np.testing.assert_allclose(phase_diversity(grid + 0.5, ones[:1]), 1.0)
+    # a quarter plane pixel right: 0.5 px off; the reference window at weight 3 against 1 → 0.5 / 4
+    pos = np.concatenate([grid, grid + np.array([0.0, 0.25])[None, :, None, None]])
+    np.testing.assert_allclose(phase_diversity(pos, np.stack([3 * ones[0], ones[0]])), 0.125)
+    # a cell no window reaches, or whose windows have no weight: 0 (the MHC correction in full)
+    pos[:, :, 0, 0] = np.nan
+    assert phase_diversity(pos, np.ones((2, h, w)))[0, 0] == 0.0
+    with pytest.raises(ValueError, match="weights must be finite"):
+        phase_diversity(pos, np.ones((1, h, w)))
+    with pytest.raises(ValueError, match="positions must be"):
+        phase_diversity(np.zeros((2, h, w)), np.ones((2, h, w)))

@@ -731,15 +731,17 @@ def test_the_multiframe_demosaic_is_the_default_where_the_merge_is_robust():
 
 def test_the_multiframe_demosaic_is_psi_where_nothing_moves_and_sharper_where_it_does():
     """A smooth static noisy scene: every window samples the same phase, nothing to fill in, and the gathering is
-    noisier than Ψ of the merge (1.22× its squared error, pinned so that it cannot grow); a fine texture moving by a
-    fraction of a pixel per window: the windows fill in each other's missing colours."""
+    noisier than Ψ of the merge, the more so without a denoiser as here, where the Malvar–He–Cutler correction of a
+    static frame is noise too (1.32× Ψ's squared error; 1.22× before that correction; pinned so that it cannot
+    grow); a fine texture moving by a fraction of a pixel per window: the windows fill in each other's missing
+    colours."""
     from scipy.ndimage import gaussian_filter, shift
 
     stream, _, rates = _hot_stream(False, planes=300, size=64)
     base = ReconstructParams(window=10, K=3, L=3, denoise=False, hot_pixels="off")
     err = {d: float(np.mean((next(Reconstructor(stream, replace(base, demosaic=d)).frames(14, 15)).rgb
                              - rates[:, :, None]) ** 2)) for d in ("bilinear", "multiframe")}
-    assert err["multiframe"] < 1.3 * err["bilinear"], err  # grey rates: the truth in every colour
+    assert err["multiframe"] < 1.4 * err["bilinear"], err  # grey rates: the truth in every colour
     rng = np.random.default_rng(5)
     size, n_windows = 64, 30
     tex = gaussian_filter(rng.random((size + 64, size + 64)), 0.8)

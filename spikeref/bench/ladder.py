@@ -64,7 +64,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "PEER_RUNGS", "TRUE_FLOW_RUNGS", "GHOST_RUNGS", "LadderSetting",
+__all__ = ["RUNGS", "RUNG_LABELS", "OPTION_RUNGS", "PEER_RUNGS", "TRUE_FLOW_RUNGS", "GHOST_RUNGS", "NOISE_FREE_RUNGS",
+           "RECONSTRUCTOR_RUNGS", "BENCH_DARK_PLANES", "LadderSetting",
            "binomial_weights", "has_true_flow", "clean_window_counts", "motion_edge_band", "band_psnr",
            "true_flow_frame", "psi", "psnr_score", "run_ladder", "ladder_markdown", "plot_ladder"]
 
@@ -89,8 +90,16 @@ OPTION_RUNGS = ("ours_mhc", "limit_mhc", "ours_count", "ours_binomial", "ours_ro
 GHOST_RUNGS = ("no_align", "ours_binomial", "ours_robust", "ours", "true_flow")
 #: The rungs that need a classical peer (its package), by peer.
 PEER_RUNGS = {"bm3d": ("bm3d", "true_flow_bm3d"), "nlm": ("nlm",)}
+#: Rungs made from the noise-free scene: no dark level to subtract.
+NOISE_FREE_RUNGS = ("limit", "limit_mhc", "true_flow_clean")
+#: Rungs made by :class:`~spikeref.pipeline.Reconstructor` (which subtracts a dark level itself).
+RECONSTRUCTOR_RUNGS = ("paper", "ours", "ours_mhc", "ours_count", "ours_binomial", "ours_robust", "ours_adaptive",
+                       "no_align", "no_denoiser")
 #: The rungs made by warping with the scene's exact motion.
 TRUE_FLOW_RUNGS = ("true_flow", "true_flow_d", "true_flow_bm3d", "true_flow_clean", "true_flow_support")
+#: Readouts of the dark recording a calibrated ladder simulates per scene (0.2 s at 20 kHz: each phase's level to
+#: about 0.6 % at the bench's dark current).
+BENCH_DARK_PLANES = 4000
 #: Border left out of the end-point error, full-resolution pixels.
 EPE_BORDER = 8
 #: Plane pixels the motion-edge band reaches beyond the edge (:func:`motion_edge_band`).
@@ -278,10 +287,12 @@ def _support_frame(view, content, params, k: int, offset: int, cfa: str) -> np.n
 
 
 def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list, denoisers: dict, peers: dict,
-                      rungs, overrides: dict) -> tuple:
+                      rungs, overrides: dict, dark_level=None) -> tuple:
     """Frames of every rung at the centres, seconds per frame of the single-window ones, and EPE per step.
 
-    ``denoisers`` maps what a window gives (``"count"``, ``"charge"``) to the denoiser run on it.
+    ``denoisers`` maps what a window gives (``"count"``, ``"charge"``) to the denoiser run on it.  ``dark_level``
+    ``(4,)``, if given, is subtracted from every rung's frames but the noise-free ones (:data:`NOISE_FREE_RUNGS`):
+    by the :class:`~spikeref.pipeline.Reconstructor` in the method's rungs, after the frame in the others.
     """
     from spikeref.accumulate import window_counts
     from spikeref.charge import window_charge
@@ -367,7 +378,7 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
                 out["limit_mhc"].append(demosaic_mhc(mosaic, cfa))
 
     def run(params, den, keep):
-        rec = Reconstructor(view, params, den)
+        rec = Reconstructor(view, params, den, dark_level=dark_level)
         got, flows = [], []
         wanted = set(ks)
         for frame in rec.frames(ks[0], ks[-1] + 1, keep_steps=keep):
@@ -404,12 +415,18 @@ def _frames_for_scene(sc, setting: LadderSetting, centres: list[int], refs: list
         out["no_align"] = run(replace(base, align=False), denoiser, False)[0]
     if "no_denoiser" in rungs:
         out["no_denoiser"] = run(base, lambda p: p, False)[0]
+    if dark_level is not None:
+        from spikeref.dark_level import subtract_dark_level
+
+        for r in rungs:
+            if r not in NOISE_FREE_RUNGS and r not in RECONSTRUCTOR_RUNGS:
+                out[r] = [None if f is None else subtract_dark_level(f, dark_level, cfa) for f in out[r]]
     return out, secs, {lv: float(np.mean(v)) for lv, v in sorted(epe.items())}
 
 
 def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None, frames: int = 4,
                peers=("bm3d", "nlm"), rungs=RUNGS, progress: bool = True, log=None,
-               params: dict | None = None) -> dict:
+               params: dict | None = None, dark_calibration: bool = False) -> dict:
     """Run the ladder on ``scenes`` (:class:`~spikeref.bench.runner.BenchScene`) for each setting.
 
     Parameters
@@ -434,6 +451,11 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
         method's rungs (``ours``, ``no_align``, ``no_denoiser``) and ``true_flow_support``'s ``support`` — for
         studies; the ``paper``
         rung always runs the paper's procedure.
+    dark_calibration : bool
+        Calibrate each scene's sensor as a user would (:meth:`~spikeref.bench.runner.BenchScene.dark_calibration`:
+        a dark recording of :data:`BENCH_DARK_PLANES` readouts, the same sensor with the lens covered and other
+        noise draws) and subtract its dark level from every rung's frames but the noise-free ones.  Default off:
+        the frames are ``E[I_c]`` (Eq. 9), as without a calibration.
 
     Returns
     -------
@@ -476,12 +498,13 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
         for sc in scenes:
             bar.set_postfix_str(f"{sc.key}: simulating")
             sc.simulate(seed)
+            dark = sc.dark_calibration(seed, BENCH_DARK_PLANES)["dark_level"] if dark_calibration else None
             centres = score_centres(len(sc.stream), frames)
             refs = [sc.reference(t) for t in centres]
             for setting in settings:
                 bar.set_postfix_str(f"{sc.key}: {setting.name}")
                 out, secs, epe = _frames_for_scene(sc, setting, centres, refs, denoisers, peer_fns, rungs,
-                                                   dict(params or {}))
+                                                   dict(params or {}), dark)
                 bands = [motion_edge_band(sc.scene.content, t, setting.window) for t in centres]
                 bands = None if any(b is None for b in bands) else bands
                 for r in rungs:
@@ -509,7 +532,8 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
     finally:
         bar.close()
     return {"rows": rows, "epe": epe_rows, "notes": notes, "rungs": rungs,
-            "scenes": [s.key for s in scenes], "settings": [s.name for s in settings], "seed": seed}
+            "scenes": [s.key for s in scenes], "settings": [s.name for s in settings], "seed": seed,
+            "dark_calibration": bool(dark_calibration)}
 
 
 def _table(result: dict, setting: str, metric: str) -> tuple[list[str], dict]:

@@ -66,6 +66,17 @@ class BenchScene:
         if self.stream is None:
             self.stream = simulate(self.scene, seed=seed).stream
 
+    def dark_calibration(self, seed: int, planes: int) -> dict:
+        """The calibration a user would make of this scene's sensor (:func:`spikeref.dark_level.calibrate_dark`): a
+        dark recording of ``planes`` readouts, the scene with the lens covered
+        (:func:`spikeref.simulate.simulator.dark_scene`), simulated with the scene's ``seed`` — the same sensor:
+        thresholds, hot pixels, which pixels have inherent noise — and ``take=1``, other noise draws."""
+        from spikeref.dark_level import calibrate_dark
+        from spikeref.simulate.simulator import dark_scene, simulate
+
+        dark = simulate(dark_scene(self.scene), seed=seed, planes=planes, take=1).stream
+        return calibrate_dark(dark, planes=planes)
+
     def reference(self, centre: int) -> np.ndarray:
         """Ground truth ``(H, W, 3) float64`` of the 10-plane window centred on ``centre``."""
         from spikeref.simulate.simulator import ground_truth

@@ -26,6 +26,8 @@ def cmd_bench(args) -> int:
 
     if args.ladder:
         return _cmd_ladder(args)
+    if args.dark_calibration:
+        raise CliError("--dark-calibration applies to --ladder only (the grid scores the frames as they are)")
     grid = parse_grid(quick=args.quick, methods=args.methods, modes=args.modes, W=args.W, K=args.K, L=args.L,
                       align=args.align, frames=args.frames, scenes=args.scenes, flow_frames=args.flow_frames)
     scenes = bench_scenes(grid.scenes)  # unknown scene names fail here, before any work
@@ -122,9 +124,10 @@ def _cmd_ladder(args) -> int:
     compiling_note(args, "bench-ladder")
     t0 = time.perf_counter()
     result = run_ladder(scenes, settings, seed=args.seed, denoiser=den, frames=frames,
-                        progress=not args.no_progress)
+                        progress=not args.no_progress, dark_calibration=args.dark_calibration)
     elapsed = time.perf_counter() - t0
-    head = (f"# spikeref bench --ladder (bench v{BENCH_VERSION}, seed {args.seed}, "
+    calibrated = ", dark level calibrated" if args.dark_calibration else ""
+    head = (f"# spikeref bench --ladder (bench v{BENCH_VERSION}, seed {args.seed}{calibrated}, "
             f"{datetime.datetime.now():%Y-%m-%d %H:%M}, {platform.processor() or platform.machine()}, "
             f"{os.cpu_count()} CPUs, {elapsed:.0f} s)\n\n")
     text = head + ladder_markdown(result)
@@ -195,6 +198,11 @@ def add_parser(sub) -> list[argparse.ArgumentParser]:
                         "and (with spikeref[plot]) ladder.png into --out; about 100 s on 2 cores with the "
                         "peers extra. With --ladder, -W/-K/-L, --scenes, --frames, --seed, --weights, --out and "
                         "--no-progress apply; --quick, --methods, --modes, --align and --flow-frames are refused")
+    p.add_argument("--dark-calibration", action="store_true",
+                   help="--ladder only: calibrate each scene's sensor as a user would (a dark recording of 4000 "
+                        "readouts of the same sensor, spikeref calibrate's measure) and subtract its dark level "
+                        "from every rung's frames but the noise-free ones (spikeref.dark_level). Default: not "
+                        "subtracted, the frames keep Eq. 9's E[N]/W as the paper's")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_bench)
     return [p]

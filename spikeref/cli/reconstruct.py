@@ -96,6 +96,7 @@ def cmd_reconstruct(args) -> int:
         chosen["merge"] = args.merge
     if args.support is not None:
         check_int(args.support, "--support", 1, "a positive number of windows")
+    dark = _dark_level(args.dark_level)
     hot_map = hot_pixel_option(args.hot_pixels)
     if args.hot_pixels is not None:  # a map replaces the search; auto/off as given (the paper's preset: off)
         chosen["hot_pixels"] = "off" if hot_map is not None else args.hot_pixels
@@ -127,18 +128,18 @@ def cmd_reconstruct(args) -> int:
     if args.workers is not None or args.scheduler is not None:
         if args.profile:
             raise CliError("--profile times one process; run without --workers/--scheduler")
-        return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map)
+        return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map, dark)
     stream = open_input(args)
     den = weights.load_denoiser(args.weights, accumulate=params.accumulate, shrink=shrink,
                                 guard=guard) if params.denoise else None
-    rec = Reconstructor(stream, params, den, hot_pixels=hot_pixel_map(hot_map, stream))
+    rec = Reconstructor(stream, params, den, hot_pixels=hot_pixel_map(hot_map, stream), dark_level=dark)
     frames = _frames_in(args, rec.frames_available, params)
     a, b = frames.start, frames.stop
     done = set()
     if exr_dir is not None:
         with output_phase():
             _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink, rec.hot_pixel_mask,
-                                                      hot_map), args.resume)
+                                                      hot_map, dark), args.resume)
     if args.resume:
         done, bad = frames_on_disk(exr_dir, frames, stream.height, stream.width)
         if bad:
@@ -189,7 +190,26 @@ def cmd_reconstruct(args) -> int:
     return 0
 
 
-def _run_record(stream, params, args, guard, shrink, hot_mask=None, hot_map=None) -> dict:
+def _dark_level(value):
+    """``--dark-level MAP.npz``: the dark level ``(4,)`` stored by ``spikeref calibrate``, or None."""
+    if value is None:
+        return None
+    from spikeref.dark_level import load_dark_level
+
+    path = Path(value)
+    if path.suffix.lower() != ".npz":
+        raise CliError(f"--dark-level must be a calibration map .npz (spikeref calibrate DARK -o MAP.npz); got "
+                       f"{value!r}")
+    try:
+        return load_dark_level(path)
+    except FileNotFoundError:
+        raise CliError(f"--dark-level {value}: no such file (make one with spikeref calibrate DARK -o {value})") \
+            from None
+    except ValueError as exc:
+        raise CliError(f"--dark-level {exc}") from None
+
+
+def _run_record(stream, params, args, guard, shrink, hot_mask=None, hot_map=None, dark=None) -> dict:
     """How this run makes its frames, for the EXR folder's record (``--resume`` refuses other settings).
 
     The hot pixels are recorded by what was replaced (named only when some were), not by the option, so a
@@ -208,6 +228,8 @@ def _run_record(stream, params, args, guard, shrink, hot_mask=None, hot_map=None
     if hot_mask is not None and hot_mask.any():
         record["hot_pixels"] = {"replaced": int(hot_mask.sum()),
                                 "from": str(hot_map) if hot_map is not None else "the recording"}
+    if dark is not None:  # named only when given, so records of earlier runs resume as before
+        record["dark_level"] = [float(v) for v in dark]
     if stream.rows == "top-down":  # named only when not the default, so records of bottom-up runs stay as they were
         record["input"]["rows"] = stream.rows
     if params.denoise:
@@ -236,7 +258,7 @@ def _check_resume_record(exr_dir, record, resume: bool) -> None:
     write_run_record(exr_dir, record)
 
 
-def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map) -> int:
+def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map, dark=None) -> int:
     import time
 
     from spikeref.distributed import ChunkError, assemble_video, reconstruct_distributed
@@ -268,7 +290,8 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map) -
         hot = find_hot_pixels(stream)
     say_hot_pixels(hot, hot_map)
     with output_phase():
-        _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink, hot, hot_map), args.resume)
+        _check_resume_record(exr_dir, _run_record(stream, params, args, guard, shrink, hot, hot_map, dark),
+                             args.resume)
     open_kwargs = {"height": args.height, "width": args.width, "cfa": args.cfa, "file_width": args.file_width,
                    "rate_hz": args.rate_hz, "key": args.key, "axes": args.axes, "rows": args.rows}
     where = f"{args.workers} local workers" if args.workers is not None else f"scheduler {args.scheduler}"
@@ -279,7 +302,8 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map) -
         summaries = reconstruct_distributed(stream.path, exr_dir, params, open_kwargs=open_kwargs,
                                             weights=args.weights, frames=frames, chunk_frames=args.chunk_frames,
                                             workers=args.workers, scheduler=args.scheduler, resume=args.resume,
-                                            half=args.half, guard=guard, shrink=shrink, hot_pixels=hot)
+                                            half=args.half, guard=guard, shrink=shrink, hot_pixels=hot,
+                                            dark_level=dark)
     except (KeyboardInterrupt, OSError, ChunkError) as exc:  # frames already written stay: --resume goes on
         raise _stopped(args, exc, exr_dir, frames, _frames_written(exr_dir, frames)) from exc
     wall = time.perf_counter() - t0
@@ -360,6 +384,11 @@ def add_parser(sub) -> list[argparse.ArgumentParser]:
                    help="with the adaptive merge: the farthest window a pixel may collect, in windows each side of "
                         "the reference (default 10: 100 planes at W = 10)")
     add_hot_pixel_option(p, "reconstruct")
+    p.add_argument("--dark-level", default=None, metavar="MAP.npz",
+                   help="subtract the sensor's dark level from every frame: what it fires without light, per 2×2 "
+                        "phase in spikes per readout (Eq. 9's E[N]/W, which the paper's frames keep), measured by "
+                        "spikeref calibrate on a recording made with the lens covered; frames clipped at 0. "
+                        "Default: not subtracted. Not in the paper; spikeref.dark_level")
     p.add_argument("--flow-frames", choices=["denoised", "smoothed"], default=None,
                    help="what each step's flow is estimated on: smoothed (default; a Gaussian of σ = 1 "
                         "Bayer-plane pixel on the raw frames, one denoiser pass per frame, not in the paper) or "

@@ -67,7 +67,7 @@ class UNetSpec:
         1 (default, the paper's network): the image alone.  2 (not in the paper): the image and an
         *exposure channel*, the constant :func:`exposure_level` of the window behind it, so that one
         network can tell a short noisy window from a long clean one of the same count
-        (``docs/results.md``, "The exposure as an input channel").
+        (``docs/results_history.md``, "The exposure as an input channel").
     """
 
     width: int = 32

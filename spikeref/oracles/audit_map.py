@@ -188,14 +188,18 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         what=("the multi-frame demosaic: each full-resolution pixel and colour gathers every merged window's raw "
               "Bayer samples around where its content is in that window, weighted by the window's final merge weight "
               "and a Gaussian of the distance (`σ = 0.6` px for red and blue, `σ/√2` for green); the denoiser's change "
-              "of the merged planes is added through Ψ ([spec](spec/multiframe_demosaic.md#multiframe_demosaic))"),
-        function=('`spikeref.multiframe_demosaic.multiframe_demosaic`; `spikeref.merge.robust_merge(final_weights='
-                  'True)`; `ReconstructParams(demosaic="auto" | "multiframe")`'),
-        oracle='`oracles.multiframe_demosaic.multiframe_demosaic_oracle` (pixel by pixel)',
+              "of the merged planes is added through Ψ, and the Malvar–He–Cutler correction where the windows sampled "
+              "only the reference's CFA phases (`1 − δ`, [spec](spec/multiframe_demosaic.md#phase_diversity)) "
+              "([spec](spec/multiframe_demosaic.md#multiframe_demosaic))"),
+        function=('`spikeref.multiframe_demosaic.multiframe_demosaic`, `phase_diversity`; `spikeref.merge.'
+                  'robust_merge(final_weights=True)`; `ReconstructParams(demosaic="auto" | "multiframe")`'),
+        oracle=('`oracles.multiframe_demosaic.multiframe_demosaic_oracle` (pixel by pixel), '
+                '`phase_diversity_oracle` (cell by cell)'),
         tests=('`tests/test_multiframe_demosaic.py` (oracle by hypothesis, one window keeps each site\'s value, four '
-               'phases recover what one mosaic misses, the fallback), `tests/test_pipeline.py` (the default, a static '
-               'and a moving scene), `tests/test_merge.py` (the final weights are the estimate\'s)'),
-        golden="{multiframe_demosaic}, {robust_merge} (`final_adaptive_floor`)",
+               'phases recover what one mosaic misses, the fallback, δ against its oracle and at the lattice), '
+               '`tests/test_pipeline.py` (the default, a static and a moving scene), `tests/test_merge.py` (the final '
+               'weights are the estimate\'s)'),
+        golden="{multiframe_demosaic}, {phase_diversity}, {robust_merge} (`final_adaptive_floor`)",
     ),
     AuditRow(
         equation="— (not in the paper; the pipeline's default, `paper()` keeps them)",
@@ -211,6 +215,21 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
                'them), `tests/test_effects.py` (the simulator\'s `hot_pixels` with a range of rates), '
                '`tests/test_cli.py` (`calibrate`, `--hot-pixels`)'),
         golden="— (not frozen: a port may leave it out; `scripts/study_hot_pixels.py` measures it)",
+    ),
+    AuditRow(
+        equation="Eq. 9 (`E[N]/W = αγ/E_th + C_i`, which the paper's frames keep; subtracting it is not in the paper)",
+        what=("the dark level: each 2×2 phase's mean rate over a dark recording (hot pixels left out), subtracted "
+              "from every output frame per colour (mean of the colour's phases; a monochrome frame per phase), "
+              "clipped at 0"),
+        function=('`spikeref.dark_level.measure_dark_level`, `calibrate_dark`, `subtract_dark_level`; '
+                  '`spikeref.pipeline.Reconstructor(dark_level=)`, `spikeref calibrate`, `--dark-level`, '
+                  '`spikeref bench --ladder --dark-calibration`'),
+        oracle='`dark_level.dark_level_oracle` (phase by phase, pixel by pixel)',
+        tests=('`tests/test_dark_level.py` (oracle by hypothesis, per phase with hot pixels left out, a simulated '
+               'dark recording gives Eq. 6 + Eq. 8, the subtraction per colour and per phase, the Reconstructor\'s '
+               'frames and steps), `tests/test_cli.py` (`calibrate` stores it, `--dark-level`), '
+               '`tests/test_ladder.py` (the calibrated ladder)'),
+        golden="— (a mean and a subtraction; the spec is the module's docstring)",
     ),
     AuditRow(
         equation='§4.1',

@@ -161,6 +161,12 @@ def _multiframe(case, i):
     return case.outputs(i, multiframe_demosaic)
 
 
+def _phase_diversity(case, i):
+    from spikeref.multiframe_demosaic import phase_diversity
+
+    return case.outputs(i, phase_diversity)
+
+
 def _merge(case, i):
     from spikeref.merge import MergeParams, robust_merge
 
@@ -222,6 +228,7 @@ FAST: dict[str, Callable] = {
     "sure_guard": _guard,
     "robust_merge": _merge,
     "multiframe_demosaic": _multiframe,
+    "phase_diversity": _phase_diversity,
 }
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from spikeref.oracles.case import OracleCase
 
-__all__ = ["multiframe_demosaic_oracle", "GOLDEN_CASES"]
+__all__ = ["multiframe_demosaic_oracle", "phase_diversity_oracle", "GOLDEN_CASES"]
 
 #: The Bayer planes' offsets in the 2×2 cell, restated (an oracle module imports no fast code).
 OFFSETS = ((0, 0), (0, 1), (1, 0), (1, 1))
@@ -56,6 +56,31 @@ def multiframe_demosaic_oracle(counts, positions, weights, window, cfa, fallback
                             den[colour[c]] += omega * g
             for ch in range(3):
                 out[big_y, big_x, ch] = num[ch] / den[ch] if den[ch] > 0 else fallback[big_y, big_x, ch]
+    return out
+
+
+def phase_diversity_oracle(positions, weights):
+    """:func:`spikeref.multiframe_demosaic.phase_diversity`, cell by cell and window by window (float64 ``(h, w)``)."""
+    pos = np.asarray(positions, dtype=np.float64)
+    wt = np.asarray(weights, dtype=np.float64)
+    n, _, h, w = pos.shape
+    out = np.zeros((h, w))
+    for y in range(h):
+        for x in range(w):
+            share, total = 0.0, 0.0
+            for j in range(n):
+                py, px = pos[j, 0, y, x], pos[j, 1, y, x]
+                if math.isnan(py) or math.isnan(px):
+                    continue
+                # the content's offset in full-resolution pixels, and its distance to the nearest even integer
+                offsets = []
+                for moved in (2.0 * (py - y), 2.0 * (px - x)):
+                    nearest_even = 2.0 * round(moved / 2.0)
+                    offsets.append(abs(moved - nearest_even))
+                off = min(1.0, math.hypot(offsets[0], offsets[1]))
+                share += wt[j, y, x] * off
+                total += wt[j, y, x]
+            out[y, x] = share / total if total > 0 else 0.0
     return out
 
 
@@ -103,5 +128,19 @@ GOLDEN_CASES = (
                 "cell": "nearest: (Y // 2, X // 2)"},
         spec="docs/spec/multiframe_demosaic.md#multiframe_demosaic",
         outputs=_outputs,
+    ),
+    OracleCase(
+        "phase_diversity", "— (not in the paper; weights the Malvar–He–Cutler correction added to the multi-frame "
+        "demosaic)",
+        "spikeref.multiframe_demosaic.phase_diversity",
+        "spikeref.oracles.multiframe_demosaic.phase_diversity_oracle",
+        "The multi-frame demosaic case's positions and weights (five windows of 5×6 cells drifting 0.2 / 0.3 plane "
+        "px per window with jitter, window 0 NaN at a corner, window 3 refused over a block, no window at cell "
+        "(4, 5)): δ per cell (delta), 0 at the cell without a window.",
+        _inputs, lambda i: {"delta": phase_diversity_oracle(i["positions"], i["weights"])},
+        rtol=1e-9, atol=1e-12,
+        params={"lattice": "even full-resolution pixels (the reference's CFA phase)", "cap": 1.0},
+        spec="docs/spec/multiframe_demosaic.md#phase_diversity",
+        outputs=lambda i, fn: {"delta": np.asarray(fn(i["positions"], i["weights"]), np.float64)},
     ),
 )

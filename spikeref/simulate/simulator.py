@@ -35,6 +35,7 @@ from tqdm import tqdm
 
 from spikeref.simulate import effects as fx
 from spikeref.simulate.camera import fire, mosaic_radiance
+from spikeref.simulate.patterns import Uniform
 from spikeref.stream import SpikeStream
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "iter_simulation",
     "simulate",
     "ground_truth",
+    "dark_scene",
     "resolve_seed",
 ]
 
@@ -70,8 +72,13 @@ def resolve_seed(seed) -> int:
     return int(seed)
 
 
-def _rng(seed: int, effect: str, block: int | None = None) -> np.random.Generator:
+def _rng(seed: int, effect: str, block: int | None = None, take: int = 0) -> np.random.Generator:
+    """The draws of ``effect``: the sensor's own (``block=None``: thresholds, phases, which pixels are hot or have
+    inherent noise) from ``seed`` alone, those of one block of readouts also from ``take`` (0: the keys of every
+    earlier version, so a recording of ``take=0`` is unchanged)."""
     key = (_STREAM_ID[effect],) if block is None else (_STREAM_ID[effect], block + 1)
+    if block is not None and take:
+        key = key + (take,)
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
 
 
@@ -131,10 +138,17 @@ class Simulation:
         ``{name: effect}`` replacing the scene's effects (``{}`` for none).
     gt_window : int, optional
         Also accumulate ground-truth frames of this many readouts.
+    take : int
+        Which recording of the same sensor (≥ 0): the sensor's draws (thresholds, phases, hot pixels,
+        which pixels have inherent noise) come from ``seed`` alone, the noise of every readout also from
+        ``take`` — a dark recording of the sensor that recorded a scene is ``take=1`` with the scene's seed.
     """
 
-    def __init__(self, scene, seed=0, effects=None, gt_window: int | None = None):
+    def __init__(self, scene, seed=0, effects=None, gt_window: int | None = None, take: int = 0):
         _check_scene(scene)
+        if isinstance(take, (bool, np.bool_)) or not isinstance(take, (int, np.integer)) or take < 0:
+            raise ValueError(f"take must be an integer ≥ 0; got {take!r}")
+        self.take = int(take)
         if effects is not None:
             scene = replace(scene, effects=fx.parse_effects(effects))
         self.scene = scene
@@ -230,13 +244,15 @@ class Simulation:
         if self.hot is not None:
             charge += self.hot
         if "shot_noise" in e:
-            fx.add_shot_noise(charge, e["shot_noise"], cam.threshold, _rng(self.seed, "shot_noise", block))
+            fx.add_shot_noise(charge, e["shot_noise"], cam.threshold,
+                              _rng(self.seed, "shot_noise", block, self.take))
         if "dark_current" in e:
-            fx.add_dark_current(charge, e["dark_current"], cam.alpha, BLOCK, _rng(self.seed, "dark_current", block))
+            fx.add_dark_current(charge, e["dark_current"], cam.alpha, BLOCK,
+                                _rng(self.seed, "dark_current", block, self.take))
         # radiance was checked finite and ≥ 0 per readout, and every effect adds charge ≥ 0
         fire(charge, self.thresholds, self.state, out=spikes, check=False)
         if self.inherent is not None:
-            self.inherent.apply_block(spikes, start, BLOCK, _rng(self.seed, "inherent_noise", block))
+            self.inherent.apply_block(spikes, start, BLOCK, _rng(self.seed, "inherent_noise", block, self.take))
         self.readout += n
         return gt_frames
 
@@ -267,7 +283,8 @@ def _default_chunk(height: int, width: int) -> int:
 
 
 def iter_simulation(scene, seed=0, *, planes: int | None = None, effects=None, gt_window: int | None = None,
-                    chunk_planes: int | None = None, progress: bool = False) -> Iterator[SimulationChunk]:
+                    chunk_planes: int | None = None, progress: bool = False,
+                    take: int = 0) -> Iterator[SimulationChunk]:
     """Simulate ``scene`` chunk by chunk (bounded memory), yielding :class:`SimulationChunk`.
 
     Parameters
@@ -285,6 +302,8 @@ def iter_simulation(scene, seed=0, *, planes: int | None = None, effects=None, g
         a chunk near 16 M pixel-readouts.  The result does not depend on it.
     progress : bool
         Show a progress bar (planes).
+    take : int
+        Which recording of the same sensor (:class:`Simulation`).
     """
     _check_scene(scene)
     total = scene.planes if planes is None else planes
@@ -297,7 +316,7 @@ def iter_simulation(scene, seed=0, *, planes: int | None = None, effects=None, g
         if not isinstance(chunk_planes, (int, np.integer)) or chunk_planes < 1:
             raise ValueError(f"chunk_planes must be a positive integer; got {chunk_planes!r}")
         chunk = -(-int(chunk_planes) // BLOCK) * BLOCK
-    sim = Simulation(scene, seed=seed, effects=effects, gt_window=gt_window)
+    sim = Simulation(scene, seed=seed, effects=effects, gt_window=gt_window, take=take)
 
     with tqdm(total=int(total), desc=f"simulating {getattr(scene, 'name', '')}".strip(), unit="plane",
               disable=not progress, leave=False) as bar:
@@ -345,7 +364,8 @@ class SimulationResult:
         return self._gt_cache[key]
 
 
-def simulate(scene, seed=0, *, planes: int | None = None, effects=None, progress: bool = False) -> SimulationResult:
+def simulate(scene, seed=0, *, planes: int | None = None, effects=None, progress: bool = False,
+             take: int = 0) -> SimulationResult:
     """Simulate ``scene`` in memory.
 
     Parameters
@@ -361,6 +381,9 @@ def simulate(scene, seed=0, *, planes: int | None = None, effects=None, progress
         Replaces the scene's effects (``{}``: noise-free).
     progress : bool
         Show a progress bar.
+    take : int
+        Which recording of the same sensor (:class:`Simulation`): ``take=1`` and :func:`dark_scene` give the
+        dark recording a user would calibrate the sensor of ``take=0`` with.
 
     Returns
     -------
@@ -376,9 +399,22 @@ def simulate(scene, seed=0, *, planes: int | None = None, effects=None, progress
     ran = scene
     if effects is not None:
         ran = replace(scene, effects=fx.parse_effects(effects))
-    for chunk in iter_simulation(ran, sim_seed, planes=int(total), progress=progress):
+    for chunk in iter_simulation(ran, sim_seed, planes=int(total), progress=progress, take=take):
         spikes[chunk.start:chunk.start + chunk.spikes.shape[0]] = chunk.spikes
     return SimulationResult(spikes=spikes, scene=ran, seed=sim_seed)
+
+
+def dark_scene(scene):
+    """``scene`` with the lens covered: the same camera, size, effects and length, no light (a uniform radiance 0).
+
+    Simulated with the scene's seed and ``take=1`` (:func:`simulate`) it is the dark recording of the sensor that
+    recorded the scene — its fixed pattern and hot pixels, other noise draws — from which a user calibrates the
+    dark level and the hot pixels (``spikeref calibrate``).
+    """
+    _check_scene(scene)
+    c = scene.content
+    dark = Uniform(height=c.height, width=c.width, rate_hz=c.rate_hz, brightness=0.0)
+    return replace(scene, name=f"{scene.name} (dark)".strip(), content=dark)
 
 
 def ground_truth(scene, window: int, planes: int | None = None, start: int = 0,
