@@ -33,10 +33,14 @@ from spikeref.bayer import cfa_channels
 from spikeref.hot_pixels import HotPixelParams, hot_pixel_excess
 from spikeref.stream import SpikeStream, as_stream
 
-__all__ = ["DARK_PLANES", "DARK_MIN_EXCESS", "calibrate_dark", "measure_dark_level", "dark_level_oracle",
-           "check_dark_level", "colour_levels", "subtract_dark_level", "load_dark_level"]
+__all__ = ["DARK_PLANES", "DARK_MIN_EXCESS", "DARK_LEVEL_MAX", "calibrate_dark", "measure_dark_level",
+           "dark_level_oracle", "check_dark_level", "colour_levels", "subtract_dark_level", "load_dark_level"]
 
 
+#: Above this rate (spikes per readout, any phase) a "dark" recording is not dark: a pixel of a spike camera fires
+#: without light at well under 0.01 (the paper's Fig. 4; the bench's sensors 0.0002–0.004), so ``spikeref calibrate``
+#: warns and ``--dark-level`` refuses such a map.
+DARK_LEVEL_MAX = 0.05
 #: Readouts of a dark recording read by default: 1 s at 20 kHz.
 DARK_PLANES = 20000
 #: The hot-pixel test on a dark recording: the least excess over the same-colour reference, spikes per readout.  No
@@ -90,7 +94,7 @@ def _phase_means(rate: np.ndarray, keep: np.ndarray) -> np.ndarray:
     return out
 
 
-def measure_dark_level(stream, planes: int = 20000, start: int = 0, hot=None) -> np.ndarray:
+def measure_dark_level(stream, planes: int = DARK_PLANES, start: int = 0, hot=None) -> np.ndarray:
     """The dark level of a recording made without light: each 2×2 phase's mean rate, its hot pixels left out.
 
     Parameters
@@ -104,7 +108,8 @@ def measure_dark_level(stream, planes: int = 20000, start: int = 0, hot=None) ->
     start : int
         First readout.
     hot : ndarray ``(H, W) bool``, optional
-        Pixels to leave out (a hot-pixel map of the same recording, :func:`spikeref.hot_pixels.find_hot_pixels`).
+        Pixels to leave out (a hot-pixel map of the same recording, :func:`spikeref.hot_pixels.find_hot_pixels`);
+        a phase whose every pixel is hot keeps them all.
 
     Returns
     -------
@@ -186,8 +191,12 @@ def subtract_dark_level(image: np.ndarray, level, cfa: str | None) -> np.ndarray
     return np.maximum(image - sub.astype(np.float32), np.float32(0)).astype(np.float32, copy=False)
 
 
-def load_dark_level(path) -> np.ndarray:
-    """The dark level stored by ``spikeref calibrate`` in its map ``.npz`` (array ``dark_level``, ``(4,)``)."""
+def load_dark_level(path, shape: tuple[int, int] | None = None) -> np.ndarray:
+    """The dark level stored by ``spikeref calibrate`` in its map ``.npz`` (array ``dark_level``, ``(4,)``).
+
+    ``shape``, if given, is checked against the map's recorded ``height`` and ``width`` (the same sensor); a level
+    above :data:`DARK_LEVEL_MAX` is refused (a map made from a lit recording).
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such calibration map: {path}")
@@ -195,9 +204,17 @@ def load_dark_level(path) -> np.ndarray:
         with np.load(path) as data:
             files = list(data.files)
             level = np.asarray(data["dark_level"]) if "dark_level" in files else None
+            size = tuple(int(data[k]) for k in ("height", "width")) if {"height", "width"} <= set(files) \
+                else None
     except (OSError, EOFError, ValueError, AttributeError, TypeError) as exc:
         raise ValueError(f"{path}: not a readable calibration map ({exc})") from None
     if level is None:
         raise ValueError(f"{path}: no dark level in this map (found {files}); make it again with spikeref "
                          f"calibrate DARK -o {path.name}")
-    return check_dark_level(level, f"{path}: dark_level")
+    level = check_dark_level(level, f"{path}: dark_level")
+    if shape is not None and size is not None and size != tuple(shape):
+        raise ValueError(f"{path}: a map of {size[0]}×{size[1]} pixels for a recording of {shape[0]}×{shape[1]}")
+    if level.max() > DARK_LEVEL_MAX:
+        raise ValueError(f"{path}: a dark level of {level.max():.4f} spikes per readout is not a dark recording's "
+                         f"(above {DARK_LEVEL_MAX}); calibrate on a recording made with the lens covered")
+    return level

@@ -740,24 +740,25 @@ def test_calibrate_then_reconstruct_and_denoise_with_the_map(tmp_path, capsys):
 
 @pytest.mark.filterwarnings("ignore:.*too small for the alignment pyramid")
 def test_calibrate_measures_the_dark_level_and_reconstruct_subtracts_it(tmp_path, capsys):
-    """A dark recording firing 0.05 spikes per readout everywhere (and three hot pixels, left out): the map holds
-    that level per phase, and ``--dark-level`` takes it off every frame (recorded for ``--resume``)."""
+    """A dark recording firing 0.02 spikes per readout everywhere (and a hot pixel, left out): the map holds that
+    level per phase, and ``--dark-level`` takes it off every frame (recorded for ``--resume``)."""
     from spikeref.io.dat import sidecar_path
 
     rng = np.random.default_rng(11)
-    dark_spikes = (rng.random((400, 32, 32)) < 0.05).astype(np.uint8)
+    dark_spikes = (rng.random((1000, 32, 32)) < 0.02).astype(np.uint8)
     dark_spikes[:, 5, 6] = 1  # hot: fires every readout
     dark = tmp_path / "dark.dat"
     write_dat(dark, dark_spikes)
     sidecar_path(dark).write_text(json.dumps({"height": 32, "width": 32, "cfa": "RGGB"}))
     scene, _ = _hot_dat(tmp_path, False, "scene.dat")
     cal = tmp_path / "cal.npz"
-    assert main(["calibrate", str(dark), "-o", str(cal), "--planes", "400"]) == 0
-    out = capsys.readouterr().out
-    assert "1 hot pixels" in out and "dark level (Eq. 9's E[N]/W" in out
+    assert main(["calibrate", str(dark), "-o", str(cal), "--planes", "1000"]) == 0
+    captured = capsys.readouterr()
+    assert "1 hot pixels" in captured.out and "dark level (Eq. 9's E[N]/W" in captured.out
+    assert "warning: a dark level" not in captured.err
     level = np.load(cal)["dark_level"]
-    # 256 pixels a phase × 400 readouts at 0.05: a binomial standard error of 0.0007
-    np.testing.assert_allclose(level, 0.05, atol=0.004)
+    # 256 pixels a phase × 1000 readouts at 0.02: a binomial standard error of 0.0003
+    np.testing.assert_allclose(level, 0.02, atol=0.0015)
     common = [str(scene), "-L", "1", "--no-denoiser", "--frames", "1:2", "--hot-pixels", "off"]
     assert main(["reconstruct", *common, "--exr-dir", str(tmp_path / "a")]) == 0
     assert main(["reconstruct", *common, "--dark-level", str(cal), "--exr-dir", str(tmp_path / "b")]) == 0
@@ -771,16 +772,26 @@ def test_calibrate_measures_the_dark_level_and_reconstruct_subtracts_it(tmp_path
     assert "dark_level" not in json.loads((tmp_path / "a" / "spikeref_run.json").read_text())
 
 
+def test_calibrate_warns_when_the_recording_is_not_dark(tmp_path, capsys):
+    lit, _ = _hot_dat(tmp_path, False, "lit.dat")  # a dim smooth scene at 0.1–0.3 spikes per readout
+    assert main(["calibrate", str(lit), "-o", str(tmp_path / "m.npz")]) == 0
+    assert "warning: a dark level of" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("value, message", [
     ("map.txt", "--dark-level must be a calibration map .npz"),
     ("nope.npz", "--dark-level nope.npz: no such file (make one with spikeref calibrate"),
     ("old.npz", "no dark level in this map"),
+    ("small.npz", "a map of 4×4 pixels for a recording of 32×32"),
+    ("lit.npz", "is not a dark recording's (above 0.05)"),
 ])
 def test_bad_dark_level_maps_are_refused_in_one_line(tmp_path, capsys, monkeypatch, value, message):
     from spikeref.hot_pixels import save_hot_pixel_map
 
     monkeypatch.chdir(tmp_path)
     save_hot_pixel_map(tmp_path / "old.npz", np.zeros((32, 32), bool))
+    save_hot_pixel_map(tmp_path / "small.npz", np.zeros((4, 4), bool), height=4, width=4, dark_level=np.zeros(4))
+    save_hot_pixel_map(tmp_path / "lit.npz", np.zeros((32, 32), bool), dark_level=np.full(4, 0.2))
     scene, _ = _hot_dat(tmp_path, False, "scene.dat")
     assert main(["reconstruct", str(scene), "--dark-level", value, "-L", "1", "--exr-dir", "x"]) == 2
     err = capsys.readouterr().err

@@ -125,8 +125,8 @@ def test_bad_frames_and_recordings_are_refused():
 def test_load_the_level_from_a_calibration_map(tmp_path):
     from spikeref.hot_pixels import save_hot_pixel_map
 
-    save_hot_pixel_map(tmp_path / "new.npz", np.zeros((4, 4), bool), dark_level=np.array([0.1, 0.2, 0.2, 0.3]))
-    np.testing.assert_allclose(load_dark_level(tmp_path / "new.npz"), [0.1, 0.2, 0.2, 0.3])
+    save_hot_pixel_map(tmp_path / "new.npz", np.zeros((4, 4), bool), dark_level=np.array([0.001, 0.002, 0.002, 0.003]))
+    np.testing.assert_allclose(load_dark_level(tmp_path / "new.npz"), [0.001, 0.002, 0.002, 0.003])
     save_hot_pixel_map(tmp_path / "old.npz", np.zeros((4, 4), bool))  # a map made before the dark level
     with pytest.raises(ValueError, match="no dark level in this map"):
         load_dark_level(tmp_path / "old.npz")
@@ -157,3 +157,30 @@ def test_the_reconstructor_subtracts_it_from_every_frame_and_step():
     assert (plain[0].rgb[..., 2] < 0.4).any() and (dark[0].rgb[..., 2] == 0).any()  # blue lost 0.4, clipped at 0
     with pytest.raises(ValueError, match="dark_level must hold one rate per 2×2 phase"):
         Reconstructor(stream, params, dark_level=[0.1])
+
+
+def test_a_map_of_another_size_or_of_a_lit_scene_is_refused(tmp_path):
+    from spikeref.hot_pixels import save_hot_pixel_map
+
+    save_hot_pixel_map(tmp_path / "m.npz", np.zeros((4, 6), bool), height=4, width=6, dark_level=np.full(4, 0.002))
+    np.testing.assert_allclose(load_dark_level(tmp_path / "m.npz", (4, 6)), 0.002)
+    with pytest.raises(ValueError, match="a map of 4×6 pixels for a recording of 8×8"):
+        load_dark_level(tmp_path / "m.npz", (8, 8))
+    save_hot_pixel_map(tmp_path / "lit.npz", np.zeros((4, 6), bool), dark_level=np.array([0.3, 0.4, 0.4, 0.2]))
+    with pytest.raises(ValueError, match="is not a dark recording's"):
+        load_dark_level(tmp_path / "lit.npz")
+
+
+@pytest.mark.filterwarnings("ignore:.*too small for the alignment pyramid")
+def test_a_monochrome_stream_loses_each_phases_level():
+    from spikeref.pipeline import ReconstructParams, Reconstructor
+    from spikeref.stream import SpikeStream
+
+    spikes = (np.random.default_rng(1).random((60, 16, 16)) < 0.3).astype(np.uint8)
+    stream = SpikeStream.from_array(spikes)  # no CFA
+    params = ReconstructParams(window=5, K=3, L=1, denoise=False)
+    level = np.array([0.01, 0.02, 0.03, 0.04])
+    a = next(Reconstructor(stream, params).frames())
+    b = next(Reconstructor(stream, params, dark_level=level).frames())
+    assert a.rgb.ndim == 2
+    np.testing.assert_allclose(b.rgb, np.maximum(a.rgb - np.tile(level.reshape(2, 2), (8, 8)), 0), atol=1e-7)

@@ -177,3 +177,21 @@ def test_phase_diversity_is_zero_on_the_reference_lattice_and_one_a_pixel_off():
         phase_diversity(pos, np.ones((1, h, w)))
     with pytest.raises(ValueError, match="positions must be"):
         phase_diversity(np.zeros((2, h, w)), np.ones((2, h, w)))
+
+
+def test_colour_saturation_of_grey_pure_and_mixed_colours():
+    from spikeref.multiframe_demosaic import colour_saturation
+
+    rgb = np.zeros((4, 9, 3), np.float32)
+    rgb[:, :3] = 0.4  # grey
+    rgb[:, 3:6] = (0.5, 0.0, 0.0)  # pure red
+    rgb[:, 6:] = (0.4, 0.2, 0.1)  # (0.4 − 0.1) / 0.4
+    s = colour_saturation(rgb, box=1)
+    assert s.shape == (4, 9) and s.dtype == np.float32
+    np.testing.assert_allclose(s[0], [0, 0, 0, 1, 1, 1, 0.75, 0.75, 0.75], atol=1e-6)
+    assert colour_saturation(np.zeros((2, 2, 3)))[0, 0] == 0  # black: not saturated
+    assert colour_saturation(-rgb)[0, 0] == 0  # negative counts as 0
+    with pytest.raises(ValueError, match="box must be an odd"):
+        colour_saturation(rgb, box=2)
+    with pytest.raises(ValueError, match="rgb must be"):
+        colour_saturation(rgb[..., 0])

@@ -547,6 +547,9 @@ def ladder_markdown(result: dict) -> str:
     """The ladder as Markdown: PSNR per scene and rung, the mean, gains over the rung below, EPE per step."""
     lines = []
     rungs = result["rungs"]
+    if result.get("dark_calibration"):
+        lines.append("Dark level calibrated: each scene's sensor on its own dark recording, the level taken off every "
+                     "rung but the noise-free ones (`dark_calibration=True`).\n")
     for setting in result["settings"]:
         scenes, grid = _table(result, setting, "psnr")
         lines.append(f"### Stage ladder, {setting} — PSNR (dB)\n")

@@ -17,7 +17,7 @@ __all__ = ["cmd_calibrate", "add_parser"]
 
 def cmd_calibrate(args) -> int:
     """``spikeref calibrate DARK -o map.npz``: the hot pixels and the dark level of a dark recording, as a map."""
-    from spikeref.dark_level import calibrate_dark
+    from spikeref.dark_level import DARK_LEVEL_MAX, calibrate_dark
     from spikeref.hot_pixels import save_hot_pixel_map
 
     check_output_file(args.output, "-o/--output", (".npz",), "hot-pixel map")
@@ -40,6 +40,9 @@ def cmd_calibrate(args) -> int:
                                 f"{float(excess[mask].max()):.2f} spikes per readout" if n else ""))
     print("dark level (Eq. 9's E[N]/W, spikes per readout, per 2×2 phase): "
           + ", ".join(f"{v:.5f}" for v in level))
+    if level.max() > DARK_LEVEL_MAX:
+        print(f"warning: a dark level of {level.max():.4f} spikes per readout is not a dark recording's (above "
+              f"{DARK_LEVEL_MAX}): --dark-level will refuse this map; its hot pixels still apply", file=sys.stderr)
     print(f"wrote {args.output}: use it with spikeref reconstruct --hot-pixels {args.output} --dark-level "
           f"{args.output} (denoise: --hot-pixels)", file=sys.stderr)
     return 0

@@ -132,6 +132,7 @@ def cmd_reconstruct(args) -> int:
     stream = open_input(args)
     den = weights.load_denoiser(args.weights, accumulate=params.accumulate, shrink=shrink,
                                 guard=guard) if params.denoise else None
+    dark = _dark_level(args.dark_level, stream)  # the same sensor's size
     rec = Reconstructor(stream, params, den, hot_pixels=hot_pixel_map(hot_map, stream), dark_level=dark)
     frames = _frames_in(args, rec.frames_available, params)
     a, b = frames.start, frames.stop
@@ -190,8 +191,9 @@ def cmd_reconstruct(args) -> int:
     return 0
 
 
-def _dark_level(value):
-    """``--dark-level MAP.npz``: the dark level ``(4,)`` stored by ``spikeref calibrate``, or None."""
+def _dark_level(value, stream=None):
+    """``--dark-level MAP.npz``: the dark level ``(4,)`` stored by ``spikeref calibrate``, or None; with ``stream``,
+    the map's size is checked against it."""
     if value is None:
         return None
     from spikeref.dark_level import load_dark_level
@@ -201,11 +203,11 @@ def _dark_level(value):
         raise CliError(f"--dark-level must be a calibration map .npz (spikeref calibrate DARK -o MAP.npz); got "
                        f"{value!r}")
     try:
-        return load_dark_level(path)
+        return load_dark_level(path, None if stream is None else (stream.height, stream.width))
     except FileNotFoundError:
         raise CliError(f"--dark-level {value}: no such file (make one with spikeref calibrate DARK -o {value})") \
             from None
-    except ValueError as exc:
+    except (ValueError, TypeError) as exc:
         raise CliError(f"--dark-level {exc}") from None
 
 
@@ -285,6 +287,7 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map, d
 
     # found once here, in the recording's first planes, and sent to every chunk (a map, even an empty one, is used
     # as it is: the chunks search for none)
+    dark = _dark_level(args.dark_level, stream)  # the same sensor's size
     hot = hot_pixel_map(hot_map, stream)
     if hot is None and params.hot_pixels == "auto":
         hot = find_hot_pixels(stream)

@@ -189,15 +189,18 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
               "Bayer samples around where its content is in that window, weighted by the window's final merge weight "
               "and a Gaussian of the distance (`σ = 0.6` px for red and blue, `σ/√2` for green); the denoiser's change "
               "of the merged planes is added through Ψ, and the Malvar–He–Cutler correction where the windows sampled "
-              "only the reference's CFA phases (`1 − δ`, [spec](spec/multiframe_demosaic.md#phase_diversity)) "
+              "only the reference's CFA phases (`1 − δ`, [spec](spec/multiframe_demosaic.md#phase_diversity)), "
+              "halved where the colour is saturated (`colour_saturation`) "
               "([spec](spec/multiframe_demosaic.md#multiframe_demosaic))"),
-        function=('`spikeref.multiframe_demosaic.multiframe_demosaic`, `phase_diversity`; `spikeref.merge.'
-                  'robust_merge(final_weights=True)`; `ReconstructParams(demosaic="auto" | "multiframe")`'),
+        function=('`spikeref.multiframe_demosaic.multiframe_demosaic`, `phase_diversity`, `colour_saturation`; '
+                  '`spikeref.merge.robust_merge(final_weights=True)`; `ReconstructParams(demosaic="auto" | '
+                  '"multiframe")`'),
         oracle=('`oracles.multiframe_demosaic.multiframe_demosaic_oracle` (pixel by pixel), '
                 '`phase_diversity_oracle` (cell by cell)'),
         tests=('`tests/test_multiframe_demosaic.py` (oracle by hypothesis, one window keeps each site\'s value, four '
                'phases recover what one mosaic misses, the fallback, δ against its oracle and at the lattice), '
-               '`tests/test_pipeline.py` (the default, a static and a moving scene), `tests/test_merge.py` (the final '
+               '`tests/test_pipeline.py` (the default, a static and a moving scene, the MHC correction pays where '
+               'nothing moves), `tests/test_merge.py` (the final '
                'weights are the estimate\'s)'),
         golden="{multiframe_demosaic}, {phase_diversity}, {robust_merge} (`final_adaptive_floor`)",
     ),

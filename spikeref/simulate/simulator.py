@@ -73,9 +73,9 @@ def resolve_seed(seed) -> int:
 
 
 def _rng(seed: int, effect: str, block: int | None = None, take: int = 0) -> np.random.Generator:
-    """The draws of ``effect``: the sensor's own (``block=None``: thresholds, phases, which pixels are hot or have
-    inherent noise) from ``seed`` alone, those of one block of readouts also from ``take`` (0: the keys of every
-    earlier version, so a recording of ``take=0`` is unchanged)."""
+    """The draws of ``effect``: those made once (``block=None``: thresholds, initial phases, which pixels are hot or
+    have inherent noise and their first spurious spike) from ``seed`` alone, those of one block of readouts also
+    from ``take`` (0: the keys of every earlier version, so a recording of ``take=0`` is unchanged)."""
     key = (_STREAM_ID[effect],) if block is None else (_STREAM_ID[effect], block + 1)
     if block is not None and take:
         key = key + (take,)
@@ -139,9 +139,10 @@ class Simulation:
     gt_window : int, optional
         Also accumulate ground-truth frames of this many readouts.
     take : int
-        Which recording of the same sensor (≥ 0): the sensor's draws (thresholds, phases, hot pixels,
-        which pixels have inherent noise) come from ``seed`` alone, the noise of every readout also from
-        ``take`` — a dark recording of the sensor that recorded a scene is ``take=1`` with the scene's seed.
+        Which recording of the same sensor (≥ 0): the draws made once (thresholds, initial phases, hot pixels,
+        which pixels have inherent noise and their first spurious spike) come from ``seed`` alone, those of
+        every block of readouts (shot noise, dark photons, the later spurious spikes) also from ``take`` — a dark
+        recording of the sensor that recorded a scene is ``take=1`` with the scene's seed.
     """
 
     def __init__(self, scene, seed=0, effects=None, gt_window: int | None = None, take: int = 0):
