@@ -64,7 +64,7 @@ def main() -> None:
                      dark_calibration=args.dark_calibration)
     text = ladder_markdown(res)
     if {"ours", "limit"} <= set(res["rungs"]):  # the table beside the ladder needs both
-        text += _beside_the_ladder(res, scenes, seed, args.frames, args.dark_calibration)
+        text += _beside_the_ladder(res, scenes, seed, args.frames)
     print(text)
     if args.out:
         args.out.write_text(text)
@@ -72,11 +72,10 @@ def main() -> None:
         plot_ladder(res, args.png)
 
 
-def _beside_the_ladder(res: dict, scenes, seed: int, frames: int, dark_calibration: bool = False) -> str:
+def _beside_the_ladder(res: dict, scenes, seed: int, frames: int) -> str:
     """TFP(W=100) per scene (the paper's Table 1 reference) and ours against it, BM3D on one window and the limit."""
     from spikeref.accumulate import accumulate
     from spikeref.bayer import demosaic_bilinear
-    from spikeref.bench.ladder import BENCH_DARK_PLANES
     from spikeref.bench.runner import score_centres
     from spikeref.dark_level import subtract_dark_level
     from spikeref.metrics import psnr
@@ -84,7 +83,7 @@ def _beside_the_ladder(res: dict, scenes, seed: int, frames: int, dark_calibrati
     tfp100 = {}
     for sc in scenes:
         sc.simulate(seed)
-        dark = sc.dark_calibration(seed, BENCH_DARK_PLANES)["dark_level"] if dark_calibration else None
+        dark = res["dark_levels"].get(sc.key)  # the ladder's calibration (with --dark-calibration)
         scores = []
         for t in score_centres(len(sc.stream), frames):
             ref = sc.reference(t)

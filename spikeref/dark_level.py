@@ -64,13 +64,15 @@ def calibrate_dark(stream, planes: int = DARK_PLANES) -> dict:
     dict
         ``hot`` ``(H, W) bool`` (:func:`spikeref.hot_pixels.hot_pixel_excess` with ``min_excess`` =
         :data:`DARK_MIN_EXCESS`), ``excess`` ``(H, W)`` (each pixel's excess over its colour, spikes per readout),
-        ``dark_level`` ``(4,)`` (:func:`measure_dark_level` without the hot pixels) and ``planes`` (read).
+        ``dark_level`` ``(4,)`` (:func:`measure_dark_level`'s mean without the hot pixels, from the rates the
+        hot-pixel test read: the recording is read once; its stretch is the whole blocks of ``planes``) and
+        ``planes`` (asked for, at most the recording's length).
     """
     stream = as_stream(stream)
     planes = whole_number(planes, "planes", 8, "a number of readouts ≥ 8")
     found = hot_pixel_excess(stream, params=HotPixelParams(planes=planes, min_excess=DARK_MIN_EXCESS))
     return {"hot": found["hot"], "excess": found["excess"], "planes": min(planes, len(stream)),
-            "dark_level": measure_dark_level(stream, planes=planes, hot=found["hot"])}
+            "dark_level": _phase_means(found["rate"], ~found["hot"])}
 
 
 def check_dark_level(level, name: str = "dark_level") -> np.ndarray:

@@ -86,11 +86,12 @@ from scipy.ndimage import uniform_filter
 
 from spikeref._checks import finite_number
 from spikeref._jit import njit, prange
-from spikeref.bayer import cfa_channels
+from spikeref.bayer import bayer_mosaic, cfa_channels
+from spikeref.demosaic import demosaic
 from spikeref.denoise.guard import noise_sigma
 
-__all__ = ["MultiframeParams", "multiframe_demosaic", "shrink_increment", "phase_diversity", "colour_saturation",
-           "plane_channels",
+__all__ = ["MultiframeParams", "multiframe_demosaic", "multiframe_frame", "shrink_increment", "phase_diversity",
+           "colour_saturation", "plane_channels",
            "colour_planes", "plane_sigmas", "PLANE_OFFSETS", "SHRINK_BOX", "SATURATION_BOX"]
 
 #: Side (full-resolution pixels) of the box over which :func:`shrink_increment` measures the increment's energy.
@@ -376,3 +377,31 @@ def colour_saturation(rgb, box: int = SATURATION_BOX) -> np.ndarray:
     out = np.zeros_like(hi)
     np.divide(hi - lo, hi, out=out, where=hi > 0)
     return out
+
+
+def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged, denoised) -> np.ndarray:
+    """The pipeline's output frame with the multi-frame demosaic (module doc), ``(2h, 2w, 3) float32``.
+
+    ``B = Ψ(I)`` of the merged planes; the gathered frame's increment over ``B`` kept by its Wiener gain
+    (:func:`multiframe_demosaic`, :func:`shrink_increment`); the Malvar–He–Cutler correction ``MHC(I) − B``, kept
+    alike, scaled by ``1 − s/2`` (:func:`colour_saturation` of ``B``) and weighted per cell by ``1 − δ``
+    (:func:`phase_diversity`); the denoiser's change ``Ψ[D(I) − I]``; the sum clipped at 0 (MHC overshoots at
+    edges: a rate is never negative).
+
+    Parameters
+    ----------
+    counts, positions, weights, window, cfa
+        As :func:`multiframe_demosaic` (``weights``: the merge's final weights).
+    merged, denoised : ndarray ``(4, h, w)`` float
+        The merged Bayer planes ``I`` (rates) and the denoiser's ``D(I)``.
+    """
+    mosaic = bayer_mosaic(merged, cfa)
+    base = demosaic(mosaic, cfa, "bilinear")
+    change = demosaic(bayer_mosaic(denoised - merged, cfa), cfa, "bilinear")
+    rgb = shrink_increment(multiframe_demosaic(counts, positions, weights, window, cfa, base), base)
+    correction = shrink_increment(demosaic(mosaic, cfa, "mhc"), base) - base
+    correction *= (1 - colour_saturation(base) / 2)[..., None]  # MHC assumes the colours share their detail
+    still = (1.0 - phase_diversity(positions, weights)).astype(np.float32)  # per 2×2 cell
+    h, w = still.shape
+    correction = (correction.reshape(h, 2, w, 2, 3) * still[:, None, :, None, None]).reshape(2 * h, 2 * w, 3)
+    return np.maximum(rgb + correction + change, 0).astype(np.float32, copy=False)

@@ -26,7 +26,7 @@ from spikeref.charge import WINDOWS_PER_CALL, window_charge
 from spikeref.compose import chained_samples, composed_samples, composed_warp, path_table
 from spikeref.demosaic import demosaic
 from spikeref.merge import MergeParams, default_shells, robust_merge
-from spikeref.multiframe_demosaic import colour_saturation, multiframe_demosaic, phase_diversity, shrink_increment
+from spikeref.multiframe_demosaic import multiframe_frame
 from spikeref.pipeline_params import FLOW_SMOOTHING_SIGMA, ReconstructParams, exposure_planes
 from spikeref.stream import SpikeStream
 from spikeref.warp import warp_average, warp_spike_windows
@@ -372,35 +372,18 @@ class FrameRings:
     def final_rgb(self, k: int) -> np.ndarray:
         """The output frame ``k``: ``Ψ[D(I_L)]`` (Eq. 13), or with the multi-frame demosaic every merged window's
         raw samples at full resolution (:mod:`spikeref.multiframe_demosaic`), what that adds to ``Ψ(I_L)`` shrunk
-        where it is not above its noise (:func:`~spikeref.multiframe_demosaic.shrink_increment`), plus the
-        Malvar–He–Cutler correction ``MHC(I_L) − Ψ(I_L)``, shrunk alike and halved where the colour is saturated
-        (:func:`~spikeref.multiframe_demosaic.colour_saturation`), where the windows sampled only the reference's
-        CFA phases (weighted by ``1 − δ``, :func:`~spikeref.multiframe_demosaic.phase_diversity`), plus the
-        denoiser's change ``Ψ[D(I_L) − I_L]``; this frame clipped at 0."""
+        where it is not above its noise, plus the Malvar–He–Cutler correction where the windows sampled only the
+        reference's CFA phases, plus the denoiser's change ``Ψ[D(I_L) − I_L]``, clipped at 0
+        (:func:`~spikeref.multiframe_demosaic.multiframe_frame`)."""
         L = self.p.L
         denoised = self.denoised(L, k)
         inputs = self.multiframe.pop(k, None)
         if inputs is None:
             return self.finish(denoised).astype(np.float32, copy=False)
-        merged = self.planes(L, k)
-        cfa = self.stream.cfa
         with self.timed("demosaic"):
             counts, positions, final = inputs
-            change = demosaic(bayer_mosaic(denoised - merged, cfa), cfa, "bilinear")
-            fallback = demosaic(bayer_mosaic(merged, cfa), cfa, "bilinear")
-            rgb = multiframe_demosaic(counts, positions, final, float(self.p.window), cfa, fallback)
-            rgb = shrink_increment(rgb, fallback)  # what it adds to Ψ of the merge, where it is more than noise
-            # MHC's correction of the colours where the windows sampled only the reference's CFA phases, kept where
-            # it stands above its own noise as the increment is
-            mhc = shrink_increment(demosaic(bayer_mosaic(merged, cfa), cfa, "mhc"), fallback)
-            correction = mhc - fallback
-            # halved where the colour is saturated (its channels do not share their detail, as MHC assumes)
-            correction *= (1 - colour_saturation(fallback) / 2)[..., None]
-            still = (1.0 - phase_diversity(positions, final)).astype(np.float32)  # per 2×2 cell
-            h, w = still.shape
-            correction = correction.reshape(h, 2, w, 2, 3) * still[:, None, :, None, None]
-            # MHC overshoots at edges: a rate is never negative (a few pixels in 10⁴ on the sample)
-            return np.maximum(rgb + correction.reshape(2 * h, 2 * w, 3) + change, 0).astype(np.float32, copy=False)
+            return multiframe_frame(counts, positions, final, float(self.p.window), self.stream.cfa,
+                                    self.planes(L, k), denoised)
 
     def output(self, k: int, keep_steps: bool) -> ReconstructedFrame:
         L = self.p.L

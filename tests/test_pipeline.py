@@ -762,7 +762,7 @@ def test_the_mhc_correction_pays_where_nothing_moves(monkeypatch):
     """A static texture of correlated colours (one grey detail, a tint): every window samples the reference's CFA
     phases (δ = 0), and the frame with MHC's correction is closer to the truth than the same frame with the
     correction weighted out (δ forced to 1: the multi-frame demosaic alone)."""
-    import spikeref.pipeline_rings as rings
+    import spikeref.multiframe_demosaic as multiframe
     from scipy.ndimage import gaussian_filter
 
     rng = np.random.default_rng(8)
@@ -783,6 +783,6 @@ def test_the_mhc_correction_pays_where_nothing_moves(monkeypatch):
         return float(np.mean((rgb[4:-4, 4:-4] - truth[4:-4, 4:-4]) ** 2))
 
     with_mhc = error()
-    monkeypatch.setattr(rings, "phase_diversity", lambda positions, weights: np.ones(positions.shape[2:]))
+    monkeypatch.setattr(multiframe, "phase_diversity", lambda positions, weights: np.ones(positions.shape[2:]))
     without = error()
     assert with_mhc < 0.93 * without, (with_mhc, without)  # 0.87× (seed 8)

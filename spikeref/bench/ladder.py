@@ -28,7 +28,7 @@ rung                   what it is
                        does for charges, the reference window for its noise)
 ``true_flow_bm3d``     the same, then BM3D on each Bayer plane (σ estimated blind): the classical peer
                        after a perfect merge
-``true_flow_clean``     the same warp and weights on the *noise-free* windows (the exact ground truth of
+``true_flow_clean``    the same warp and weights on the *noise-free* windows (the exact ground truth of
                        each window's ``W`` planes, mosaicked): between it and ``true_flow`` is the noise left
                        after the merge; between it and ``limit``, what resampling half-resolution Bayer
                        planes costs, and where a layer occludes another, the warp's error there (the
@@ -462,7 +462,8 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
     dict
         ``rows``: one per scene × setting × rung (``psnr``, ``ssim``, ``seconds_per_frame`` for the
         single-window denoisers, NaN where not run); ``epe``: one per scene × setting × step;
-        ``notes``: what was left out and why.
+        ``notes``: what was left out and why; ``dark_levels``: each scene's calibrated level (with
+        ``dark_calibration``, else empty).
     """
     from tqdm import tqdm
 
@@ -493,12 +494,15 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
         peer_fns[name] = PeerDenoiser(name)
     rungs = tuple(r for r in rungs if all(r not in need or name in peer_fns for name, need in PEER_RUNGS.items()))
     rows, epe_rows = [], []
+    dark_levels = {}
     bar = tqdm(total=len(scenes) * len(settings), desc="ladder", unit="scene", disable=not progress)
     try:
         for sc in scenes:
             bar.set_postfix_str(f"{sc.key}: simulating")
             sc.simulate(seed)
             dark = sc.dark_calibration(seed, BENCH_DARK_PLANES)["dark_level"] if dark_calibration else None
+            if dark is not None:
+                dark_levels[sc.key] = [float(v) for v in dark]
             centres = score_centres(len(sc.stream), frames)
             refs = [sc.reference(t) for t in centres]
             for setting in settings:
@@ -533,7 +537,7 @@ def run_ladder(scenes, settings=(LadderSetting(),), seed: int = 0, denoiser=None
         bar.close()
     return {"rows": rows, "epe": epe_rows, "notes": notes, "rungs": rungs,
             "scenes": [s.key for s in scenes], "settings": [s.name for s in settings], "seed": seed,
-            "dark_calibration": bool(dark_calibration)}
+            "dark_calibration": bool(dark_calibration), "dark_levels": dark_levels}
 
 
 def _table(result: dict, setting: str, metric: str) -> tuple[list[str], dict]:

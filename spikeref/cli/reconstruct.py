@@ -96,7 +96,7 @@ def cmd_reconstruct(args) -> int:
         chosen["merge"] = args.merge
     if args.support is not None:
         check_int(args.support, "--support", 1, "a positive number of windows")
-    dark = _dark_level(args.dark_level)
+    dark_map = _dark_level_option(args.dark_level)
     hot_map = hot_pixel_option(args.hot_pixels)
     if args.hot_pixels is not None:  # a map replaces the search; auto/off as given (the paper's preset: off)
         chosen["hot_pixels"] = "off" if hot_map is not None else args.hot_pixels
@@ -128,11 +128,11 @@ def cmd_reconstruct(args) -> int:
     if args.workers is not None or args.scheduler is not None:
         if args.profile:
             raise CliError("--profile times one process; run without --workers/--scheduler")
-        return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map, dark)
+        return _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map, dark_map)
     stream = open_input(args)
     den = weights.load_denoiser(args.weights, accumulate=params.accumulate, shrink=shrink,
                                 guard=guard) if params.denoise else None
-    dark = _dark_level(args.dark_level, stream)  # the same sensor's size
+    dark = _dark_level(dark_map, stream)  # the same sensor's size
     rec = Reconstructor(stream, params, den, hot_pixels=hot_pixel_map(hot_map, stream), dark_level=dark)
     frames = _frames_in(args, rec.frames_available, params)
     a, b = frames.start, frames.stop
@@ -191,22 +191,28 @@ def cmd_reconstruct(args) -> int:
     return 0
 
 
-def _dark_level(value, stream=None):
-    """``--dark-level MAP.npz``: the dark level ``(4,)`` stored by ``spikeref calibrate``, or None; with ``stream``,
-    the map's size is checked against it."""
+def _dark_level_option(value):
+    """``--dark-level MAP.npz``: the map's path (its suffix and existence checked before any work), or None."""
     if value is None:
         return None
-    from spikeref.dark_level import load_dark_level
-
     path = Path(value)
     if path.suffix.lower() != ".npz":
         raise CliError(f"--dark-level must be a calibration map .npz (spikeref calibrate DARK -o MAP.npz); got "
                        f"{value!r}")
+    if not path.is_file():
+        raise CliError(f"--dark-level {value}: no such file (make one with spikeref calibrate DARK -o {value})")
+    return path
+
+
+def _dark_level(path, stream):
+    """The dark level ``(4,)`` of the map at ``path`` (:func:`_dark_level_option`), its size checked against
+    ``stream``'s; None without a map."""
+    if path is None:
+        return None
+    from spikeref.dark_level import load_dark_level
+
     try:
-        return load_dark_level(path, None if stream is None else (stream.height, stream.width))
-    except FileNotFoundError:
-        raise CliError(f"--dark-level {value}: no such file (make one with spikeref calibrate DARK -o {value})") \
-            from None
+        return load_dark_level(path, (stream.height, stream.width))
     except (ValueError, TypeError) as exc:
         raise CliError(f"--dark-level {exc}") from None
 
@@ -260,7 +266,7 @@ def _check_resume_record(exr_dir, record, resume: bool) -> None:
     write_run_record(exr_dir, record)
 
 
-def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map, dark=None) -> int:
+def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map, dark_map=None) -> int:
     import time
 
     from spikeref.distributed import ChunkError, assemble_video, reconstruct_distributed
@@ -287,7 +293,7 @@ def _reconstruct_on_dask(args, params, video, exr_dir, guard, shrink, hot_map, d
 
     # found once here, in the recording's first planes, and sent to every chunk (a map, even an empty one, is used
     # as it is: the chunks search for none)
-    dark = _dark_level(args.dark_level, stream)  # the same sensor's size
+    dark = _dark_level(dark_map, stream)  # the same sensor's size
     hot = hot_pixel_map(hot_map, stream)
     if hot is None and params.hot_pixels == "auto":
         hot = find_hot_pixels(stream)
