@@ -380,7 +380,7 @@ def _check_counts_bank(c, b):
         raise ValueError(f"flows must have shape (nf, 2, {c.shape[2]}, {c.shape[3]}); got {b.shape}")
 
 
-def composed_samples(counts, bank, hops, targets, window: float) -> tuple:
+def composed_samples(counts, bank, hops, targets, window: float, identity: int | None = None) -> tuple:
     """Each window of the support sampled once, at the mean end of its paths, kept apart (robust merge's input).
 
     The same positions and Catmull–Rom samples as :func:`composed_warp` with ``resample="window"``, whose frame
@@ -391,6 +391,13 @@ def composed_samples(counts, bank, hops, targets, window: float) -> tuple:
     ----------
     counts, bank, hops, targets, window
         As :func:`composed_warp`.
+    identity : int, optional
+        A window (index into ``counts``) sampled at its own pixels instead: ``counts[identity] / W`` at positions
+        ``(y, x)``, its ``kept`` unchanged.  The pipeline passes the reference ``k``: paths that leave it and come
+        back (``+1`` then ``−1``) compose two estimated flows whose errors do not cancel where the scene moves,
+        so the mean end of its paths is not its own pixel there and the reference would be a displaced, resampled
+        copy of itself — the very sample the robust merge tests every other window against (not in the paper;
+        on the embedded sample 27.98 → 28.32 dB, ``docs/results.md``).
 
     Returns
     -------
@@ -413,6 +420,9 @@ def composed_samples(counts, bank, hops, targets, window: float) -> tuple:
     if isinstance(window, bool) or not np.isfinite(window) or window <= 0:
         raise ValueError(f"window must be a positive number of planes; got {window!r}")
     n, nc, h, w = c.shape
+    if identity is not None and (isinstance(identity, bool) or not isinstance(identity, (int, np.integer))
+                                 or not 0 <= identity < n):
+        raise ValueError(f"identity must index the windows (0 … {n - 1}); got {identity!r}")
     out = np.zeros((n, nc, h, w), np.float32)
     kept = np.zeros((n, h, w), np.float32)
     pos = np.zeros((n, 2, h, w), np.float32)
@@ -420,6 +430,10 @@ def composed_samples(counts, bank, hops, targets, window: float) -> tuple:
     _composed_samples(np.ascontiguousarray(c, dtype=np.float32), np.ascontiguousarray(b, dtype=np.float32),
                       hop_flow, hop_parent, hop_start, leaf, np.ascontiguousarray(tg, dtype=np.int64),
                       1.0 / float(window), out, kept, pos)
+    if identity is not None:
+        out[identity] = (c[identity].astype(np.float64) * (1.0 / float(window))).astype(np.float32)
+        pos[identity, 0] = np.arange(h, dtype=np.float32)[:, None]
+        pos[identity, 1] = np.arange(w, dtype=np.float32)[None, :]
     return out, kept, pos
 
 

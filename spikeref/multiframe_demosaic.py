@@ -49,6 +49,17 @@ Immerkær's truncated estimate), ``box`` the mean over :data:`SHRINK_BOX` × :da
 the benchmark scenes (``docs/results.md``, "The multi-frame demosaic"): mean +0.07 dB, low light +0.28; twice
 ``σ²`` made no difference (29.59 both).
 
+**Where the merge took few windows** (the pipeline passes the merge's effective number of windows ``n(x)``,
+:func:`spikeref.merge.robust_merge`'s ``windows``).  ``σ_ch`` is the frame's typical noise, set by the pixels where
+the merge took many windows; the increment's noise variance falls as ``1/n``, so :func:`multiframe_frame` scales
+``σ_ch²`` by ``median(n) / n(x)`` (a moving edge merged from one window keeps less of its noisier increment).
+And where ``n`` is about one window the gathered frame holds only the reference's own samples, an interpolation of
+the same sites as ``Ψ`` with another kernel, whose increment over ``Ψ`` is no detail: the increment is weighted by
+``clip((n − 1) / (n_g − 1), 0, 1)``, ``n_g`` = :data:`GATHER_RAMP` windows.  Measured on the bench at the defaults
+(``docs/results.md``, "Where the merge took one window"): both together 31.01 → 31.03 dB, the fan 24.75 → 24.85,
+the embedded sample 28.32 → 28.40.  Before the reference was sampled at its own pixels (30.98): the scaled ``σ²``
+alone 31.00, the ramp alone 31.00 (``n_g`` = 8: 30.98), both 31.01, both with ``(median(n)/n)²`` 30.94.
+
 **Where the windows add no phase, Ψ's correction of the colours: Malvar–He–Cutler** (:func:`phase_diversity`, the
 pipeline's last step).  Where the scene holds still, every window samples the reference's own CFA phases: the
 gathered frame is then an interpolation of each colour from its own sites, as Ψ (bilinear) is, and a demosaic that
@@ -92,13 +103,17 @@ from spikeref.denoise.guard import noise_sigma
 
 __all__ = ["MultiframeParams", "multiframe_demosaic", "multiframe_frame", "shrink_increment", "phase_diversity",
            "colour_saturation", "plane_channels",
-           "colour_planes", "plane_sigmas", "PLANE_OFFSETS", "SHRINK_BOX", "SATURATION_BOX"]
+           "colour_planes", "plane_sigmas", "PLANE_OFFSETS", "SHRINK_BOX", "SATURATION_BOX", "GATHER_RAMP"]
 
 #: Side (full-resolution pixels) of the box over which :func:`shrink_increment` measures the increment's energy.
 SHRINK_BOX = 5
 
 #: Side (full-resolution pixels) of the box over which :func:`colour_saturation` averages the frame's colour.
 SATURATION_BOX = 5
+
+#: Effective windows ``n_g`` of the merge at which :func:`multiframe_frame` keeps the gathered frame's increment in
+#: full (from none at one window; module doc, "Where the merge took few windows").
+GATHER_RAMP = 4.0
 
 #: Offsets ``(dy, dx)`` of the four Bayer planes in the 2×2 cell, in :func:`spikeref.bayer.bayer_planes`' order.
 PLANE_OFFSETS = ((0, 0), (0, 1), (1, 0), (1, 1))
@@ -285,7 +300,7 @@ def multiframe_demosaic(counts, positions, weights, window: float, cfa: str, fal
     return out
 
 
-def shrink_increment(rgb, base, box: int = SHRINK_BOX) -> np.ndarray:
+def shrink_increment(rgb, base, box: int = SHRINK_BOX, relative=None) -> np.ndarray:
     """``base + g (rgb − base)``, the increment kept by a local Wiener gain (module doc).
 
     Parameters
@@ -294,13 +309,16 @@ def shrink_increment(rgb, base, box: int = SHRINK_BOX) -> np.ndarray:
         The gathered frame (:func:`multiframe_demosaic`) and ``Ψ`` of the merged planes.
     box : int
         Odd side of the box of the increment's local energy, full-resolution pixels.
+    relative : ndarray ``(H, W)`` float ≥ 0, optional
+        A factor on ``σ_ch²`` per pixel (:func:`multiframe_frame`: ``median(n) / n``, the noise of a pixel merged
+        from ``n`` windows relative to the frame's typical one); default 1.
 
     Returns
     -------
     ndarray ``(H, W, 3) float32``
-        ``base + g d`` with ``d = rgb − base`` and ``g = clip(1 − σ_ch² / box(d²), 0, 1)`` per pixel and colour
-        (``σ_ch`` :func:`~spikeref.denoise.guard.noise_sigma` of ``d``'s colour; ``box`` SciPy's ``uniform_filter``,
-        ``mode="reflect"``; ``g = 0`` where ``box(d²) = 0``).
+        ``base + g d`` with ``d = rgb − base`` and ``g = clip(1 − r σ_ch² / box(d²), 0, 1)`` per pixel and colour
+        (``σ_ch`` :func:`~spikeref.denoise.guard.noise_sigma` of ``d``'s colour, ``r`` = ``relative``; ``box``
+        SciPy's ``uniform_filter``, ``mode="reflect"``; ``g = 0`` where ``box(d²) = 0``).
     """
     a = np.asarray(rgb, dtype=np.float64)
     b = np.asarray(base, dtype=np.float64)
@@ -310,6 +328,11 @@ def shrink_increment(rgb, base, box: int = SHRINK_BOX) -> np.ndarray:
         raise ValueError(f"box must be an odd whole number ≥ 1; got {box!r}")
     d = (a - b).transpose(2, 0, 1)
     s2 = noise_sigma(d)[:, None, None] ** 2
+    if relative is not None:
+        r = np.asarray(relative, dtype=np.float64)
+        if r.shape != a.shape[:2] or not np.all(np.isfinite(r)) or r.min(initial=0.0) < 0:
+            raise ValueError(f"relative must be finite, non-negative, of shape {a.shape[:2]}; got {r.shape}")
+        s2 = s2 * r[None]
     energy = uniform_filter(d * d, size=(1, box, box), mode="reflect")
     with np.errstate(divide="ignore", invalid="ignore"):
         gain = np.where(energy > 0, np.clip(1.0 - s2 / np.where(energy > 0, energy, 1.0), 0.0, 1.0), 0.0)
@@ -379,12 +402,14 @@ def colour_saturation(rgb, box: int = SATURATION_BOX) -> np.ndarray:
     return out
 
 
-def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged, denoised) -> np.ndarray:
+def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged, denoised,
+                     windows=None) -> np.ndarray:
     """The pipeline's output frame with the multi-frame demosaic (module doc), ``(2h, 2w, 3) float32``.
 
     ``B = Ψ(I)`` of the merged planes; the gathered frame's increment over ``B`` kept by its Wiener gain
-    (:func:`multiframe_demosaic`, :func:`shrink_increment`); the Malvar–He–Cutler correction ``MHC(I) − B``, kept
-    alike, scaled by ``1 − s/2`` (:func:`colour_saturation` of ``B``) and weighted per cell by ``1 − δ``
+    (:func:`multiframe_demosaic`, :func:`shrink_increment`) and, given ``windows``, weighted by
+    ``clip((n − 1) / (n_g − 1), 0, 1)`` (:data:`GATHER_RAMP`); the Malvar–He–Cutler correction ``MHC(I) − B``,
+    kept alike, scaled by ``1 − s/2`` (:func:`colour_saturation` of ``B``) and weighted per cell by ``1 − δ``
     (:func:`phase_diversity`); the denoiser's change ``Ψ[D(I) − I]``; the sum clipped at 0 (MHC overshoots at
     edges: a rate is never negative).
 
@@ -394,12 +419,27 @@ def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged
         As :func:`multiframe_demosaic` (``weights``: the merge's final weights).
     merged, denoised : ndarray ``(4, h, w)`` float
         The merged Bayer planes ``I`` (rates) and the denoiser's ``D(I)``.
+    windows : ndarray ``(h, w)`` float > 0, optional
+        The merge's effective number of windows ``n`` per cell (:func:`spikeref.merge.robust_merge`'s
+        ``windows``): the Wiener gains take ``σ_ch² · median(n) / n`` (module doc, "Where the merge took few
+        windows").  Without it, the frame of the module doc before that paragraph.
     """
     mosaic = bayer_mosaic(merged, cfa)
     base = demosaic(mosaic, cfa, "bilinear")
     change = demosaic(bayer_mosaic(denoised - merged, cfa), cfa, "bilinear")
-    rgb = shrink_increment(multiframe_demosaic(counts, positions, weights, window, cfa, base), base)
-    correction = shrink_increment(demosaic(mosaic, cfa, "mhc"), base) - base
+    relative = ramp = None
+    if windows is not None:
+        n = np.asarray(windows, dtype=np.float64)
+        if n.shape != np.shape(merged)[1:] or not np.all(np.isfinite(n)) or n.min(initial=1.0) <= 0:
+            raise ValueError(f"windows must be finite, positive, of shape {np.shape(merged)[1:]}; got {n.shape}")
+        cells = np.ones((2, 2))
+        relative = np.kron(np.median(n) / n, cells)
+        ramp = np.kron(np.clip((n - 1.0) / (GATHER_RAMP - 1.0), 0.0, 1.0), cells)[..., None]
+    rgb = shrink_increment(multiframe_demosaic(counts, positions, weights, window, cfa, base), base,
+                           relative=relative)
+    if ramp is not None:  # about one window: the reference's own sites, which Ψ already interpolates
+        rgb = (base + ramp * (rgb - base)).astype(np.float32)
+    correction = shrink_increment(demosaic(mosaic, cfa, "mhc"), base, relative=relative) - base
     correction *= (1 - colour_saturation(base) / 2)[..., None]  # MHC assumes the colours share their detail
     still = (1.0 - phase_diversity(positions, weights)).astype(np.float32)  # per 2×2 cell
     h, w = still.shape

@@ -316,7 +316,7 @@ class FrameRings:
             with self.timed("warp"):
                 return composed_warp(counts, bank, hops, targets, p.window, p.resample)
         with self.timed("warp"):
-            samples, kept, pos = composed_samples(counts, bank, hops, targets, p.window)
+            samples, kept, pos = composed_samples(counts, bank, hops, targets, p.window, identity=p.reach)
         n, reach = counts.shape[0], p.reach
         weights = [kept]  # Eq. 14–15's path counts: the core windows' base weights
         samples = [samples]
@@ -383,7 +383,7 @@ class FrameRings:
         with self.timed("demosaic"):
             counts, positions, final = inputs
             return multiframe_frame(counts, positions, final, float(self.p.window), self.stream.cfa,
-                                    self.planes(L, k), denoised)
+                                    self.planes(L, k), denoised, self.merge_windows.get(k))
 
     def output(self, k: int, keep_steps: bool) -> ReconstructedFrame:
         L = self.p.L

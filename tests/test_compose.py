@@ -159,6 +159,32 @@ def test_composed_samples_are_the_composed_warps_windows_kept_apart():
     assert np.array_equal(np.isnan(pos[:, 0]), kept == 0) and np.all(samples.transpose(1, 0, 2, 3)[:, kept == 0] == 0)
 
 
+def test_composed_samples_take_the_reference_at_its_own_pixels():
+    """``identity=k``: the reference window is its own count / W at the grid, whatever its round-trip paths compose
+    to (the golden case's random flows: ``+1`` then ``−1`` does not return to the pixel); the other windows and every
+    ``kept`` are as without it."""
+    from spikeref.compose import composed_samples
+    from spikeref.oracles.compose import GOLDEN_CASES
+
+    i = GOLDEN_CASES[0].make_inputs()
+    args = (i["counts"], i["bank"], i["hops"], i["targets"], int(i["window"]))
+    ref = int(np.median(i["targets"]))  # k: the middle window, 2 of 0 … 4
+    plain = composed_samples(*args)
+    samples, kept, pos = composed_samples(*args, identity=ref)
+    own = i["counts"][ref] / np.float32(i["window"])
+    assert np.abs(plain[0][ref] - own).max() > 0.05  # the mean end of its paths is not its own pixel
+    np.testing.assert_array_equal(samples[ref], own.astype(np.float32))
+    grid = np.stack(np.mgrid[0:own.shape[1], 0:own.shape[2]]).astype(np.float32)
+    np.testing.assert_array_equal(pos[ref], grid)
+    others = np.arange(len(samples)) != ref
+    np.testing.assert_array_equal(samples[others], plain[0][others])
+    np.testing.assert_array_equal(pos[others], plain[2][others])
+    np.testing.assert_array_equal(kept, plain[1])
+    for bad in (-1, len(samples), True, 1.0):
+        with pytest.raises(ValueError, match="identity must index the windows"):
+            composed_samples(*args, identity=bad)
+
+
 def test_chained_samples_follow_a_translation_and_stop_at_the_border():
     """Flows of a whole-pixel shift: the chain lands on x + i·shift in window i and is dropped once it leaves."""
     from spikeref.compose import chained_samples

@@ -195,3 +195,52 @@ def test_colour_saturation_of_grey_pure_and_mixed_colours():
         colour_saturation(rgb, box=2)
     with pytest.raises(ValueError, match="rgb must be"):
         colour_saturation(rgb[..., 0])
+
+
+def test_the_gain_takes_the_noise_of_a_pixel_merged_from_fewer_windows():
+    """``relative`` scales ``σ²`` per pixel: 1 is the default; where it is larger less of a noisy increment is kept."""
+    from spikeref.multiframe_demosaic import shrink_increment
+
+    rng = np.random.default_rng(5)
+    base = np.full((32, 40, 3), 0.3)
+    noisy = base + rng.normal(0, 0.02, base.shape)
+    np.testing.assert_array_equal(shrink_increment(noisy, base, relative=np.ones((32, 40))),
+                                  shrink_increment(noisy, base))
+    rel = np.ones((32, 40))
+    rel[:, 20:] = 4.0  # the right half merged from a quarter of the windows
+    kept = np.abs(shrink_increment(noisy, base, relative=rel) - base).mean(axis=(0, 2))
+    assert kept[25:].mean() < 0.25 * kept[:15].mean()
+    with pytest.raises(ValueError, match="relative must be"):
+        shrink_increment(noisy, base, relative=np.ones((32, 39)))
+    with pytest.raises(ValueError, match="relative must be"):
+        shrink_increment(noisy, base, relative=-rel)
+
+
+def test_the_frame_where_the_merge_took_one_window_is_psi_and_its_correction():
+    """``multiframe_frame(windows=)``: with one window merged everywhere the gathered frame adds nothing (the same
+    frame whatever weights its windows have, on the reference's CFA lattice); with as many windows everywhere
+    (≥ ``GATHER_RAMP``) the frame is the one without ``windows``."""
+    from spikeref.multiframe_demosaic import GATHER_RAMP, multiframe_frame
+
+    rng = np.random.default_rng(8)
+    n, h, w, window = 3, 8, 10, 10
+    counts = rng.integers(0, window + 1, size=(n, 4, h, w)).astype(np.float32)
+    grid = np.stack(np.mgrid[0:h, 0:w]).astype(np.float32)
+    # whole plane pixels: on the reference's CFA lattice (δ = 0, the MHC correction the same for any weights)
+    positions = np.stack([grid + rng.integers(-1, 2, size=(2, h, w)).astype(np.float32) for _ in range(n)])
+    weights = rng.uniform(0.2, 1.0, size=(n, h, w)).astype(np.float32)
+    merged = (counts * weights[:, None]).sum(0) / weights.sum(0)[None] / window
+    denoised = merged * 0.98
+
+    def frame(wts, windows):
+        return multiframe_frame(counts, positions, wts, float(window), "RGGB", merged, denoised, windows)
+
+    one = np.ones((h, w), np.float32)
+    np.testing.assert_allclose(frame(weights, one), frame(weights[::-1].copy(), one), atol=1e-6)
+    assert np.abs(frame(weights, None) - frame(weights[::-1].copy(), None)).max() > 1e-3  # without: it does
+    many = np.full((h, w), GATHER_RAMP, np.float32)
+    np.testing.assert_allclose(frame(weights, many), frame(weights, None), atol=1e-6)
+    with pytest.raises(ValueError, match="windows must be"):
+        frame(weights, one[:, :-1])
+    with pytest.raises(ValueError, match="windows must be"):
+        frame(weights, 0 * one)

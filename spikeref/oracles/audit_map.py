@@ -190,7 +190,8 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
               "and a Gaussian of the distance (`σ = 0.6` px for red and blue, `σ/√2` for green); the denoiser's change "
               "of the merged planes is added through Ψ, and the Malvar–He–Cutler correction where the windows sampled "
               "only the reference's CFA phases (`1 − δ`, [spec](spec/multiframe_demosaic.md#phase_diversity)), "
-              "halved where the colour is saturated (`colour_saturation`) "
+              "halved where the colour is saturated (`colour_saturation`); where the merge took about one window "
+              "the gathered increment ramps out and its Wiener gain takes that pixel's noise "
               "([spec](spec/multiframe_demosaic.md#multiframe_demosaic))"),
         function=('`spikeref.multiframe_demosaic.multiframe_demosaic`, `phase_diversity`, `colour_saturation`; '
                   '`spikeref.merge.robust_merge(final_weights=True)`; `ReconstructParams(demosaic="auto" | '
@@ -198,7 +199,9 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         oracle=('`oracles.multiframe_demosaic.multiframe_demosaic_oracle` (pixel by pixel), '
                 '`phase_diversity_oracle` (cell by cell)'),
         tests=('`tests/test_multiframe_demosaic.py` (oracle by hypothesis, one window keeps each site\'s value, four '
-               'phases recover what one mosaic misses, the fallback, δ against its oracle and at the lattice), '
+               'phases recover what one mosaic misses, the fallback, δ against its oracle and at the lattice, the '
+               'gain and the ramp where the merge took one window), `tests/test_compose.py` (the reference at its '
+               'own pixels), '
                '`tests/test_pipeline.py` (the default, a static and a moving scene, the MHC correction pays where '
                'nothing moves), `tests/test_merge.py` (the final '
                'weights are the estimate\'s)'),
