@@ -402,6 +402,11 @@ def colour_saturation(rgb, box: int = SATURATION_BOX) -> np.ndarray:
     return out
 
 
+def _on_pixels(cells: np.ndarray) -> np.ndarray:
+    """A map ``(h, w)`` of the 2×2 cells as ``(2h, 2w)`` full-resolution pixels (each cell's value on its four)."""
+    return np.repeat(np.repeat(cells, 2, axis=0), 2, axis=1)
+
+
 def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged, denoised,
                      windows=None) -> np.ndarray:
     """The pipeline's output frame with the multi-frame demosaic (module doc), ``(2h, 2w, 3) float32``.
@@ -432,9 +437,8 @@ def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged
         n = np.asarray(windows, dtype=np.float64)
         if n.shape != np.shape(merged)[1:] or not np.all(np.isfinite(n)) or n.min(initial=1.0) <= 0:
             raise ValueError(f"windows must be finite, positive, of shape {np.shape(merged)[1:]}; got {n.shape}")
-        cells = np.ones((2, 2))
-        relative = np.kron(np.median(n) / n, cells)
-        ramp = np.kron(np.clip((n - 1.0) / (GATHER_RAMP - 1.0), 0.0, 1.0), cells)[..., None]
+        relative = _on_pixels(np.median(n) / n)
+        ramp = _on_pixels(np.clip((n - 1.0) / (GATHER_RAMP - 1.0), 0.0, 1.0))[..., None]
     rgb = shrink_increment(multiframe_demosaic(counts, positions, weights, window, cfa, base), base,
                            relative=relative)
     if ramp is not None:  # about one window: the reference's own sites, which Ψ already interpolates
@@ -442,6 +446,5 @@ def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged
     correction = shrink_increment(demosaic(mosaic, cfa, "mhc"), base, relative=relative) - base
     correction *= (1 - colour_saturation(base) / 2)[..., None]  # MHC assumes the colours share their detail
     still = (1.0 - phase_diversity(positions, weights)).astype(np.float32)  # per 2×2 cell
-    h, w = still.shape
-    correction = (correction.reshape(h, 2, w, 2, 3) * still[:, None, :, None, None]).reshape(2 * h, 2 * w, 3)
+    correction *= _on_pixels(still)[..., None]
     return np.maximum(rgb + correction + change, 0).astype(np.float32, copy=False)

@@ -118,9 +118,9 @@ class ReconstructParams:
         merged planes is added through Ψ); Ψ of the merged frame (``"bilinear"``, Eq. 13) or Malvar–He–Cutler
         (``"mhc"``, :mod:`spikeref.demosaic`; sharper, not in the paper).  ``"auto"`` (default) is
         ``"multiframe"`` where the merge is the robust or adaptive one (:attr:`merge_used`) of aligned windows,
-        else ``"bilinear"`` (:attr:`demosaic_used`): on the benchmark / held-out means 30.98 / 30.63 dB against
-        Ψ's 28.82 / 28.58, −0.6 dB in low light, at about half the frames/s
-        (``docs/results.md``, "Where the windows add no phase, and the dark level").
+        else ``"bilinear"`` (:attr:`demosaic_used`): on the benchmark / held-out means 31.03 / 30.64 dB against
+        Ψ's 28.82 / 28.58, at about half the frames/s (``docs/results.md``, "Where the merge took one window" and
+        "Where the windows add no phase, and the dark level").
         Monochrome recordings have no demosaic.  The flows always use the 2×2 luma.
     accumulate : {"charge", "count"}
         What each window contributes: the charge its pixels integrated, read from the spike times

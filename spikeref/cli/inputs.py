@@ -11,7 +11,8 @@ from spikeref.cli.arguments import check_float, check_int
 from spikeref.cli.errors import CliError
 
 __all__ = ["SAMPLE", "add_input_options", "add_hot_pixel_option", "check_input_options", "open_input", "cfa_source",
-           "check_cfa_phase", "axes_said", "hot_pixel_option", "hot_pixel_map", "say_hot_pixels"]
+           "check_cfa_phase", "axes_said", "calibration_map_path", "calibration_map", "hot_pixel_option",
+           "hot_pixel_map", "say_hot_pixels"]
 
 SAMPLE = Path(__file__).resolve().parents[1] / "data" / "sample.dat"
 
@@ -191,28 +192,41 @@ def axes_said(stream, args) -> str:
     return " (planes first, --axes THW)" if args.axes == "THW" else " (stored planes-last, --axes HWT)"
 
 
+def calibration_map_path(value, option: str, what: str) -> Path:
+    """A ``spikeref calibrate`` map given to ``option``: its path, the suffix and the file checked before any work
+    (``what``: what the option must be, for the message)."""
+    path = Path(value)
+    if path.suffix.lower() != ".npz":
+        raise CliError(f"{option} must be {what}; got {value!r}")
+    if not path.is_file():
+        raise CliError(f"{option} {value}: no such file (make one with spikeref calibrate DARK -o {value})")
+    return path
+
+
+def calibration_map(load, path, stream, option: str):
+    """``load(path, (H, W))`` of the map given to ``option`` for ``stream`` (its size checked), or None without
+    one; the loader's ``ValueError`` or ``TypeError`` (a value of the wrong kind in the map) as a one-line error
+    naming the option."""
+    if path is None:
+        return None
+    try:
+        return load(path, (stream.height, stream.width))
+    except (ValueError, TypeError) as exc:
+        raise CliError(f"{option} {exc}") from None
+
+
 def hot_pixel_option(value):
     """``--hot-pixels``: ``auto``/``off`` (None returned) or a map file (its path, checked to exist)."""
     if value is None or value in ("auto", "off"):
         return None
-    path = Path(value)
-    if path.suffix.lower() != ".npz":
-        raise CliError(f"--hot-pixels must be auto, off or a map .npz (spikeref calibrate); got {value!r}")
-    if not path.is_file():
-        raise CliError(f"--hot-pixels {value}: no such file (make one with spikeref calibrate DARK -o {value})")
-    return path
+    return calibration_map_path(value, "--hot-pixels", "auto, off or a map .npz (spikeref calibrate)")
 
 
 def hot_pixel_map(path, stream):
     """The map of ``--hot-pixels MAP.npz`` for ``stream`` (its size checked), or None."""
-    if path is None:
-        return None
     from spikeref.hot_pixels import load_hot_pixel_map
 
-    try:
-        return load_hot_pixel_map(path, (stream.height, stream.width))
-    except ValueError as exc:
-        raise CliError(f"--hot-pixels {exc}") from None
+    return calibration_map(load_hot_pixel_map, path, stream, "--hot-pixels")
 
 
 def say_hot_pixels(mask, source) -> None:

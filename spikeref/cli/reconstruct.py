@@ -17,8 +17,8 @@ from spikeref.cli.errors import (
     CliError, Interrupted, RunFailed, os_error_text, output_phase, resume_command, signal_name,
 )
 from spikeref.cli.inputs import (
-    add_hot_pixel_option, add_input_options, axes_said, hot_pixel_map, hot_pixel_option, open_input,
-    say_hot_pixels,
+    add_hot_pixel_option, add_input_options, axes_said, calibration_map, calibration_map_path, hot_pixel_map,
+    hot_pixel_option, open_input, say_hot_pixels,
 )
 from spikeref.cli.outputs import check_output_dir, check_video, say_written
 
@@ -195,26 +195,15 @@ def _dark_level_option(value):
     """``--dark-level MAP.npz``: the map's path (its suffix and existence checked before any work), or None."""
     if value is None:
         return None
-    path = Path(value)
-    if path.suffix.lower() != ".npz":
-        raise CliError(f"--dark-level must be a calibration map .npz (spikeref calibrate DARK -o MAP.npz); got "
-                       f"{value!r}")
-    if not path.is_file():
-        raise CliError(f"--dark-level {value}: no such file (make one with spikeref calibrate DARK -o {value})")
-    return path
+    return calibration_map_path(value, "--dark-level", "a calibration map .npz (spikeref calibrate DARK -o MAP.npz)")
 
 
 def _dark_level(path, stream):
     """The dark level ``(4,)`` of the map at ``path`` (:func:`_dark_level_option`), its size checked against
     ``stream``'s; None without a map."""
-    if path is None:
-        return None
     from spikeref.dark_level import load_dark_level
 
-    try:
-        return load_dark_level(path, (stream.height, stream.width))
-    except (ValueError, TypeError) as exc:
-        raise CliError(f"--dark-level {exc}") from None
+    return calibration_map(load_dark_level, path, stream, "--dark-level")
 
 
 def _run_record(stream, params, args, guard, shrink, hot_mask=None, hot_map=None, dark=None) -> dict:
