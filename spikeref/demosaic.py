@@ -27,12 +27,14 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import correlate
 from spikeref.bayer import cfa_channel_map, check_mosaic, demosaic_bilinear, validate_cfa
+from spikeref.directional_demosaic import demosaic_ddfapd
 
 
 __all__ = ["DEMOSAICS", "MHC_KERNELS", "demosaic_mhc", "demosaic"]
 
-#: The final frame's demosaic: Ψ (``"bilinear"``, the paper's) or Malvar–He–Cutler (``"mhc"``).
-DEMOSAICS = ("bilinear", "mhc")
+#: The final frame's demosaic: Ψ (``"bilinear"``, the paper's), Malvar–He–Cutler (``"mhc"``) or the directional
+#: demosaic of Menon, Andriani & Calvagno (``"ddfapd"``, :mod:`spikeref.directional_demosaic`).
+DEMOSAICS = ("bilinear", "mhc", "ddfapd")
 
 #: The Malvar–He–Cutler filters, index ``[dy + 2, dx + 2]``.
 MHC_KERNELS = {
@@ -83,9 +85,12 @@ def demosaic_mhc(mosaic, cfa: str = "RGGB") -> np.ndarray:
 
 
 def demosaic(mosaic, cfa: str = "RGGB", method: str = "bilinear") -> np.ndarray:
-    """The output frame's demosaic by name: ``"bilinear"`` (Ψ, Eq. 13) or ``"mhc"`` (:func:`demosaic_mhc`)."""
+    """The output frame's demosaic by name: ``"bilinear"`` (Ψ, Eq. 13), ``"mhc"`` (:func:`demosaic_mhc`) or
+    ``"ddfapd"`` (:func:`spikeref.directional_demosaic.demosaic_ddfapd`)."""
     if method == "bilinear":
         return demosaic_bilinear(mosaic, cfa)
     if method == "mhc":
         return demosaic_mhc(mosaic, cfa)
+    if method == "ddfapd":
+        return demosaic_ddfapd(mosaic, cfa)
     raise ValueError(f"demosaic must be one of {', '.join(DEMOSAICS)}; got {method!r}")

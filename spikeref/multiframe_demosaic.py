@@ -83,6 +83,19 @@ colours do not: it is also scaled by ``1 − s/2``, ``s`` the local saturation o
 parameter); ``1 − clip(s / s_0)`` with ``s_0`` = 1, 1.5, 2, 4, ∞ gave 31.16, 31.30, 31.34, 31.36, 31.32 on the
 bench, the fan 24.73 to 24.40 and the embedded sample 28.13 to 27.62: ``s_0 = 2`` for the sample and the fan.
 
+**Directional where the colours share their detail** (:func:`colour_detail_ratio`,
+:func:`spikeref.directional_demosaic.demosaic_ddfapd`).  MHC's fixed filters read across an edge; the
+directional demosaic of Menon, Andriani & Calvagno (2007) interpolates along it, and on the exact mosaics of the
+eight benchmark scenes it is 1.2 dB above MHC on the mean (3.1 above Ψ).  It assumes, more strongly than MHC, that
+the colours share their detail, and it loses where they do not (the fan's red-and-white checkerboard).  So the
+correction is ``M' − Ψ(I)`` with ``M' = MHC(I) + a (DDFAPD(I) − MHC(I))`` before the Wiener gain,
+``a = clip(1 − ρ/ρ₀, 0, 1)``, ``ρ`` the share of ``Ψ(I)``'s local detail its colours do not share and ``ρ₀`` =
+:data:`DETAIL_GATE`.  Measured on the benchmark scenes at the defaults (``docs/results.md``, "The directional
+demosaic where the colours share their detail"): 31.03 → 31.63 dB; the directional demosaic alone in place of MHC
+31.73 but the fan 24.85 → 24.62; gated by the saturation instead, ``clip(1 − s/s₁)``, ``s₁`` = 0.7 / 1 / 1.5:
+31.57 / 31.64 / 31.69 with the fan 24.85 / 24.81 / 24.77; by ``ρ`` with ``ρ₀`` = 1 / 1.25: 31.56 / 31.63, the fan
+24.86 / 24.84.
+
 The literal oracles are :func:`spikeref.oracles.multiframe_demosaic.multiframe_demosaic_oracle` and
 :func:`~spikeref.oracles.multiframe_demosaic.phase_diversity_oracle`.
 """
@@ -102,14 +115,20 @@ from spikeref.demosaic import demosaic
 from spikeref.denoise.guard import noise_sigma
 
 __all__ = ["MultiframeParams", "multiframe_demosaic", "multiframe_frame", "shrink_increment", "phase_diversity",
-           "colour_saturation", "plane_channels",
+           "colour_saturation", "colour_detail_ratio", "plane_channels", "DETAIL_GATE",
            "colour_planes", "plane_sigmas", "PLANE_OFFSETS", "SHRINK_BOX", "SATURATION_BOX", "GATHER_RAMP"]
 
 #: Side (full-resolution pixels) of the box over which :func:`shrink_increment` measures the increment's energy.
 SHRINK_BOX = 5
 
-#: Side (full-resolution pixels) of the box over which :func:`colour_saturation` averages the frame's colour.
+#: Side (full-resolution pixels) of the box over which :func:`colour_saturation` averages the frame's colour
+#: (and :func:`colour_detail_ratio` its detail).
 SATURATION_BOX = 5
+
+#: ``ρ₀``: the directional demosaic's share of the correction is ``clip(1 − ρ/ρ₀, 0, 1)``, ``ρ`` the
+#: :func:`colour_detail_ratio` of ``Ψ(I)``; the rest is Malvar–He–Cutler's (module doc; chosen on the benchmark
+#: scenes, ``docs/results.md``).
+DETAIL_GATE = 1.25
 
 #: Effective windows ``n_g`` of the merge at which :func:`multiframe_frame` keeps the gathered frame's increment in
 #: full (from none at one window; module doc, "Where the merge took few windows").
@@ -402,6 +421,41 @@ def colour_saturation(rgb, box: int = SATURATION_BOX) -> np.ndarray:
     return out
 
 
+def colour_detail_ratio(rgb, box: int = SATURATION_BOX) -> np.ndarray:
+    """The share of the frame's local detail that its colours do not share, ``(H, W)`` in [0, 1].
+
+    ``h = rgb − box₃(rgb)`` per channel (the 3 × 3 mean, mirrored borders: the detail), and over the ``box`` ×
+    ``box`` window ``ρ = box(e_c) / box(h_G² + e_c)`` with ``e_c = ((h_R − h_G)² + (h_B − h_G)²) / 2``: 0 where the
+    three channels carry the same detail (grey or tinted texture), 1/3 on a red-and-white checkerboard, 1 where
+    only red or blue varies; 0 where the window is flat.  The directional demosaic, like Malvar–He–Cutler,
+    assumes shared detail; the pipeline weights it by ``clip(1 − ρ/ρ₀, 0, 1)`` (module doc).
+
+    Parameters
+    ----------
+    rgb : ndarray ``(H, W, 3)`` float
+        Linear RGB (the pipeline: ``Ψ`` of the merged planes); negative values count as 0.
+    box : int
+        Odd side of the window, full-resolution pixels.
+
+    Returns
+    -------
+    ndarray ``(H, W) float32``
+    """
+    a = np.asarray(rgb)
+    if a.ndim != 3 or a.shape[-1] != 3 or not np.issubdtype(a.dtype, np.number):
+        raise ValueError(f"rgb must be (H, W, 3) numbers; got shape {a.shape}")
+    if isinstance(box, bool) or not isinstance(box, (int, np.integer)) or box < 1 or box % 2 == 0:
+        raise ValueError(f"box must be an odd whole number ≥ 1; got {box!r}")
+    b = np.maximum(a, 0).astype(np.float64)
+    h = b - uniform_filter(b, size=(3, 3, 1), mode="reflect")
+    shared = uniform_filter(h[..., 1] ** 2, box, mode="reflect")
+    apart = uniform_filter(((h[..., 0] - h[..., 1]) ** 2 + (h[..., 2] - h[..., 1]) ** 2) / 2, box, mode="reflect")
+    total = shared + apart
+    out = np.zeros_like(total)
+    np.divide(apart, total, out=out, where=total > 0)
+    return np.clip(out, 0.0, 1.0).astype(np.float32)
+
+
 def _on_pixels(cells: np.ndarray) -> np.ndarray:
     """A map ``(h, w)`` of the 2×2 cells as ``(2h, 2w)`` full-resolution pixels (each cell's value on its four)."""
     return np.repeat(np.repeat(cells, 2, axis=0), 2, axis=1)
@@ -413,8 +467,10 @@ def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged
 
     ``B = Ψ(I)`` of the merged planes; the gathered frame's increment over ``B`` kept by its Wiener gain
     (:func:`multiframe_demosaic`, :func:`shrink_increment`) and, given ``windows``, weighted by
-    ``clip((n − 1) / (n_g − 1), 0, 1)`` (:data:`GATHER_RAMP`); the Malvar–He–Cutler correction ``MHC(I) − B``,
-    kept alike, scaled by ``1 − s/2`` (:func:`colour_saturation` of ``B``) and weighted per cell by ``1 − δ``
+    ``clip((n − 1) / (n_g − 1), 0, 1)`` (:data:`GATHER_RAMP`); the correction ``M' − B``, ``M'`` Malvar–He–Cutler's
+    frame moved toward the directional demosaic's by ``clip(1 − ρ/ρ₀, 0, 1)`` (:func:`colour_detail_ratio` of
+    ``B``, :data:`DETAIL_GATE`), kept alike, scaled by ``1 − s/2`` (:func:`colour_saturation` of ``B``) and
+    weighted per cell by ``1 − δ``
     (:func:`phase_diversity`); the denoiser's change ``Ψ[D(I) − I]``; the sum clipped at 0 (MHC overshoots at
     edges: a rate is never negative).
 
@@ -443,7 +499,10 @@ def multiframe_frame(counts, positions, weights, window: float, cfa: str, merged
                            relative=relative)
     if ramp is not None:  # about one window: the reference's own sites, which Ψ already interpolates
         rgb = (base + ramp * (rgb - base)).astype(np.float32)
-    correction = shrink_increment(demosaic(mosaic, cfa, "mhc"), base, relative=relative) - base
+    mhc = demosaic(mosaic, cfa, "mhc")
+    shared = np.clip(1.0 - colour_detail_ratio(base) / DETAIL_GATE, 0.0, 1.0)[..., None]
+    sharper = mhc + shared * (demosaic(mosaic, cfa, "ddfapd") - mhc)  # directional where the colours share detail
+    correction = shrink_increment(sharper, base, relative=relative) - base
     correction *= (1 - colour_saturation(base) / 2)[..., None]  # MHC assumes the colours share their detail
     still = (1.0 - phase_diversity(positions, weights)).astype(np.float32)  # per 2×2 cell
     correction *= _on_pixels(still)[..., None]

@@ -110,17 +110,19 @@ class ReconstructParams:
         paper's Fig. 3(b): ``L + 1`` denoiser passes per output frame) or a Gaussian-smoothed
         luma of ``I_l`` (default; :func:`flow_luma`; one denoiser pass per output frame, not in
         the paper).
-    demosaic : {"auto", "multiframe", "bilinear", "mhc"}
+    demosaic : {"auto", "multiframe", "bilinear", "mhc", "ddfapd"}
         The output frame's demosaic: ``"multiframe"`` — every merged window's raw Bayer samples gathered at full
         resolution with the merge's weights, so that the windows' sub-pixel motion fills in what one mosaic
-        does not sample, plus the Malvar–He–Cutler correction where the windows sampled only the reference's
-        CFA phases (:mod:`spikeref.multiframe_demosaic`; not in the paper; the denoiser's change of the
-        merged planes is added through Ψ); Ψ of the merged frame (``"bilinear"``, Eq. 13) or Malvar–He–Cutler
-        (``"mhc"``, :mod:`spikeref.demosaic`; sharper, not in the paper).  ``"auto"`` (default) is
+        does not sample, plus a sharper demosaic's correction where the windows sampled only the reference's
+        CFA phases (the directional demosaic where the colours share their detail, Malvar–He–Cutler's
+        elsewhere; :mod:`spikeref.multiframe_demosaic`; not in the paper; the denoiser's change of the merged
+        planes is added through Ψ); Ψ of the merged frame (``"bilinear"``, Eq. 13), Malvar–He–Cutler
+        (``"mhc"``, :mod:`spikeref.demosaic`) or Menon–Andriani–Calvagno's directional demosaic (``"ddfapd"``,
+        :mod:`spikeref.directional_demosaic`), both sharper and not in the paper.  ``"auto"`` (default) is
         ``"multiframe"`` where the merge is the robust or adaptive one (:attr:`merge_used`) of aligned windows,
-        else ``"bilinear"`` (:attr:`demosaic_used`): on the benchmark / held-out means 31.03 / 30.64 dB against
-        Ψ's 28.82 / 28.58, at about half the frames/s (``docs/results.md``, "Where the merge took one window" and
-        "Where the windows add no phase, and the dark level").
+        else ``"bilinear"`` (:attr:`demosaic_used`): on the benchmark / held-out means 31.63 / 30.67 dB
+        against Ψ's 28.82 / 28.58, at about half the frames/s (``docs/results.md``, "The directional demosaic
+        where the colours share their detail" and "Where the windows add no phase, and the dark level").
         Monochrome recordings have no demosaic.  The flows always use the 2×2 luma.
     accumulate : {"charge", "count"}
         What each window contributes: the charge its pixels integrated, read from the spike times

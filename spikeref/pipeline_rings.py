@@ -29,7 +29,7 @@ from spikeref.merge import MergeParams, default_shells, robust_merge
 from spikeref.multiframe_demosaic import multiframe_frame
 from spikeref.pipeline_params import FLOW_SMOOTHING_SIGMA, ReconstructParams, exposure_planes
 from spikeref.stream import SpikeStream
-from spikeref.warp import warp_average, warp_spike_windows
+from spikeref.warp import warp_average, warp_bilinear, warp_spike_windows
 
 __all__ = ["FrameRings", "ReconstructedFrame", "flow_luma"]
 
@@ -256,6 +256,8 @@ class FrameRings:
         fl = self.step0_flows(k) if step == 1 else self.flows(step - 1, k)  # F_0 once per window, shared
         if step == p.L and p.warp == "composed" and p.align and hh:
             return self._composed(k, fl), fl
+        if p.merge_used != "binomial" and p.align and hh and step < p.L:  # robustly too, not Eq. 14–15's mean
+            return self._robust_step(step, k, fl), fl
         if step == 1:  # Eq. 14: the spike planes of K windows
             counts = np.stack([self.window_counts(j) for j in neighbours])
             with self.timed("warp"):
@@ -263,6 +265,31 @@ class FrameRings:
         frames = np.stack([self.planes(step - 1, j) for j in neighbours])  # Eq. 15
         with self.timed("warp"):
             return warp_average(frames, fl), fl
+
+    def _robust_step(self, step: int, k: int, flows: np.ndarray) -> np.ndarray:
+        """``I_l(k)``, ``0 < l < L``, with the robust or adaptive merge: the ``K`` frames ``I_{l−1}(k + i)`` (window
+        rates at ``l = 1``) warped onto ``I_{l−1}(k)`` as Eq. 14–15 sample them (:func:`spikeref.warp.warp_bilinear`,
+        each its in-image weight) and merged by :func:`spikeref.merge.robust_merge` without shells, the reference at
+        its own pixels, ``v`` the reference window's local noise (as the output's merge takes it) times
+        ``W / e_{l−1}`` (:func:`~spikeref.pipeline_params.exposure_planes`: the frames' noise-equivalent exposure).
+        Eq. 14–15's mean of the same frames ghosts where the flow is wrong (the blades of the embedded sample's
+        fan), and the output's merge does not: without this the steps below ``L`` fell under ``R_0``."""
+        p, hh = self.p, self.p.half
+        frames = [self.planes(step - 1, j) for j in range(k - hh, k + hh + 1)]
+        reference = frames[hh]
+        samples = np.empty((p.K,) + reference.shape, np.float32)
+        inside = np.empty((p.K,) + reference.shape[1:], np.float32)
+        with self.timed("warp"):
+            for j, frame in enumerate(frames):
+                if j == hh:
+                    samples[j], inside[j] = reference, 1.0
+                else:
+                    samples[j], inside[j] = warp_bilinear(frame, flows[j])
+            # one window's noise (as the output's merge takes it) over the frames' noise-equivalent exposure
+            scale = p.window / exposure_planes(p.window, p.K, step - 1)
+            noise = np.stack([local_noise(plane) * scale for plane in self.planes(0, k).astype(np.float64)])
+            merged, _ = robust_merge(samples, inside, noise, hh, np.ones(p.K, bool), MergeParams(), check=False)
+        return merged
 
     def step0_flows(self, k: int) -> np.ndarray:
         """``F_0(k, k+i)``, ``i = −h … h``, computed once per window (the steps, ``warp="chained"`` and the
@@ -372,8 +399,9 @@ class FrameRings:
     def final_rgb(self, k: int) -> np.ndarray:
         """The output frame ``k``: ``Ψ[D(I_L)]`` (Eq. 13), or with the multi-frame demosaic every merged window's
         raw samples at full resolution (:mod:`spikeref.multiframe_demosaic`), what that adds to ``Ψ(I_L)`` shrunk
-        where it is not above its noise, plus the Malvar–He–Cutler correction where the windows sampled only the
-        reference's CFA phases, plus the denoiser's change ``Ψ[D(I_L) − I_L]``, clipped at 0
+        where it is not above its noise, plus a sharper demosaic's correction (directional where the colours share
+        their detail, Malvar–He–Cutler's elsewhere) where the windows sampled only the reference's CFA phases, plus
+        the denoiser's change ``Ψ[D(I_L) − I_L]``, clipped at 0
         (:func:`~spikeref.multiframe_demosaic.multiframe_frame`)."""
         L = self.p.L
         denoised = self.denoised(L, k)

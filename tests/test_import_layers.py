@@ -52,6 +52,7 @@ LAYERS = {
     "spikeref._merge_kernels": 3,
     "spikeref.multiframe_demosaic": 3,
     "spikeref.demosaic": 3,
+    "spikeref.directional_demosaic": 3,
     "spikeref.simulate": 3,
     "spikeref.noise_check": 3,
     "spikeref.pipeline": 4,

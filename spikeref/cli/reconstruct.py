@@ -153,7 +153,8 @@ def cmd_reconstruct(args) -> int:
     parts += ["no alignment"] if args.no_align else [f"flow on {params.flow_frames} frames", warp]
     parts += ["the paper's procedure"] if args.paper else []
     parts += [f"the {preset} preset"] if preset in ("fast", "fastest") else []
-    parts += {"mhc": ["Malvar–He–Cutler demosaic"], "multiframe": ["multi-frame demosaic"]}.get(
+    parts += {"mhc": ["Malvar–He–Cutler demosaic"], "ddfapd": ["directional demosaic"],
+              "multiframe": ["multi-frame demosaic"]}.get(
         params.demosaic_used if stream.cfa else "", [])
     parts += [f"guard {guard}", f"weights {Path(str(args.weights)).stem}"] if params.denoise else ["no denoiser"]
     print(f"{stream.path.name if stream.path else 'stream'}: {len(stream)} planes of {stream.height}×{stream.width}"
@@ -396,12 +397,14 @@ def add_parser(sub) -> list[argparse.ArgumentParser]:
                         "resampled once with a cubic, not in the paper), progressive (Eq. 14-15 step by step) or "
                         "chained (only the step-0 flows composed: no frame or flow of later steps, faster, same "
                         "accuracy on the benchmark; not in the paper)")
-    p.add_argument("--demosaic", choices=["auto", "multiframe", "bilinear", "mhc"], default=None,
+    p.add_argument("--demosaic", choices=["auto", "multiframe", "bilinear", "mhc", "ddfapd"], default=None,
                    help="the output frame's demosaic: multiframe (every merged window's raw Bayer samples gathered "
                         "at full resolution with the merge's weights: the windows' sub-pixel motion fills in what "
                         "one mosaic misses; not in the paper; sharper on moving scenes, noisier in low light), "
-                        "bilinear (the paper's Ψ, Eq. 13) or mhc (Malvar-He-Cutler 5x5 "
-                        "filters, not in the paper). Default auto: multiframe with the adaptive or robust merge, "
+                        "bilinear (the paper's Ψ, Eq. 13), mhc (Malvar-He-Cutler 5x5 "
+                        "filters, not in the paper) or ddfapd (Menon-Andriani-Calvagno: each pixel's green "
+                        "interpolated along the rows or the columns, whichever its colour differences vary less "
+                        "along; not in the paper). Default auto: multiframe with the adaptive or robust merge, "
                         "bilinear otherwise (--merge binomial, the fast presets, --paper, --no-align). "
                         "docs/results.md")
     p.add_argument("--accumulate", choices=["charge", "count"], default=None,

@@ -505,6 +505,19 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         golden='{demosaic_mhc}',
     ),
     AuditRow(
+        equation='— (not in the paper; the multi-frame demosaic\'s correction, and an option)',
+        what=('Menon–Andriani–Calvagno (2007) directional demosaic without its refining step: green along the rows '
+              'and the columns by [−¼, ½, ½, ½, −¼], the direction whose colour differences vary less over the 5×5 '
+              'window, R and B through their differences with G, whole-sample mirrored border, negatives clipped'),
+        function=('`spikeref.directional_demosaic.demosaic_ddfapd`; `multiframe_frame`\'s correction where the '
+                  'colour is not saturated; `ReconstructParams(demosaic="ddfapd")`, `spikeref reconstruct '
+                  '--demosaic ddfapd`'),
+        oracle='`oracles.directional_demosaic.demosaic_ddfapd_oracle`',
+        tests=('`tests/test_directional_demosaic.py` (oracle by hypothesis for the four patterns, exact on grey '
+               'stripes either way, the decision follows an edge, sharper than MHC on grey edges, shapes and errors)'),
+        golden='{demosaic_ddfapd}',
+    ),
+    AuditRow(
         equation='—',
         what=("true motion of the simulator's image scenes: `x(t) = c + exp(G t)(p − c) + v t`, backward flow `x(t') "
               '− x` on the Bayer-plane grid, occlusion mask'),

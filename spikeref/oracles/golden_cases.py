@@ -36,6 +36,7 @@ from spikeref.oracles import charge as o_charge
 from spikeref.oracles import compose as o_compose
 from spikeref.oracles import dat as o_dat
 from spikeref.oracles import demosaic as o_dem
+from spikeref.oracles import directional_demosaic as o_ddf
 from spikeref.oracles import effects as o_fx
 from spikeref.oracles import guard as o_guard
 from spikeref.oracles import merge as o_merge
@@ -54,7 +55,7 @@ from spikeref.simulate import effects as _fx
 __all__ = ["GoldenCase", "CASES", "FAST", "MANIFEST_FORMAT", "manifest_entry", "build_manifest"]
 
 #: The oracle modules whose ``GOLDEN_CASES`` make the registry, in the manifest's order.
-ORACLE_MODULES = (o_dat, o_cam, o_fx, o_bs, o_unet, o_acc, o_charge, o_bayer, o_dem, o_bl, o_warp, o_align,
+ORACLE_MODULES = (o_dat, o_cam, o_fx, o_bs, o_unet, o_acc, o_charge, o_bayer, o_dem, o_ddf, o_bl, o_warp, o_align,
                   o_rev, o_shr, o_pipe, o_met, o_compose, o_guard, o_merge, o_mf)
 
 
@@ -114,6 +115,12 @@ def _mhc(case, i):
     from spikeref.demosaic import demosaic_mhc
 
     return case.outputs(i, demosaic_mhc)
+
+
+def _ddfapd(case, i):
+    from spikeref.directional_demosaic import demosaic_ddfapd
+
+    return case.outputs(i, demosaic_ddfapd)
 
 
 def _flow_luma(case, i):
@@ -204,6 +211,7 @@ FAST: dict[str, Callable] = {
     "bayer_planes": lambda c, i: {"planes": _bayer.bayer_planes(i["mosaic"])},
     **{f"psi_{cfa.lower()}": _psi(cfa) for cfa in o_bayer.CFA_PATTERNS},
     "demosaic_mhc": _mhc,
+    "demosaic_ddfapd": _ddfapd,
     "tfp": lambda c, i: {"frames": np.stack([_bl.tfp(i["spikes"], 7, start=s, count=1)[0]
                                           for s in range(0, i["spikes"].shape[0] - 6)])},
     "tfi": lambda c, i: {"rates": _bl.tfi(i["spikes"])},
