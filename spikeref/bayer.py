@@ -40,6 +40,7 @@ __all__ = [
     "bayer_mosaic",
     "luma",
     "demosaic_bilinear",
+    "demosaic_each",
     "check_mosaic",
     "reflect_index",
 ]
@@ -104,6 +105,29 @@ def check_mosaic(mosaic) -> tuple[np.ndarray, type]:
     if mosaic.dtype == np.float32 or np.issubdtype(mosaic.dtype, np.integer) or mosaic.dtype == bool:
         return mosaic, np.float32
     raise TypeError(f"mosaic must be float32, float64 or integer; got {mosaic.dtype}")
+
+
+def demosaic_each(mosaic, cfa: str, one) -> np.ndarray:
+    """Run a single-image demosaic on every 2-D mosaic of ``(..., H, W)``: the frame the sharper demosaics share.
+
+    ``one(image, channels, row_has)`` gets one ``(H, W)`` float64 mosaic, :func:`cfa_channel_map`'s ``channels``
+    and, for ``"R"`` and ``"B"``, an ``(H, 1)`` bool column saying which rows hold that colour, and returns
+    ``(H, W, 3)`` float64.  The arguments are checked as every demosaic checks them (:func:`check_mosaic`,
+    :func:`validate_cfa`); the result is clipped below at 0 (radiance is not negative) and is float32, or float64
+    for float64 input.
+    """
+    pattern = validate_cfa(cfa)
+    arr, dtype = check_mosaic(mosaic)
+    h, w = arr.shape[-2:]
+    channels = cfa_channel_map(h, w, pattern)
+    rows = [set(pattern[0:2]), set(pattern[2:4])]  # the colours each row parity holds
+    row_has = {c: np.array([c in rows[y % 2] for y in range(h)])[:, None] for c in "RB"}
+    flat = arr.reshape((-1, h, w)).astype(np.float64)
+    out = np.empty(flat.shape + (3,), dtype=np.float64)
+    for i, img in enumerate(flat):
+        out[i] = one(img, channels, row_has)
+    np.maximum(out, 0.0, out=out)
+    return out.reshape(arr.shape + (3,)).astype(dtype)
 
 
 def bayer_planes(mosaic: np.ndarray, cfa: str = "RGGB") -> np.ndarray:

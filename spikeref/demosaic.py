@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.ndimage import correlate
-from spikeref.bayer import cfa_channel_map, check_mosaic, demosaic_bilinear, validate_cfa
+from spikeref.bayer import demosaic_bilinear, demosaic_each
 from spikeref.directional_demosaic import demosaic_ddfapd
 
 
@@ -66,22 +66,17 @@ def demosaic_mhc(mosaic, cfa: str = "RGGB") -> np.ndarray:
     -------
     ndarray ``(..., H, W, 3)``, float32 (float64 for float64 input), ≥ 0.
     """
-    pattern = validate_cfa(cfa)
-    arr, dtype = check_mosaic(mosaic)
-    h, w = arr.shape[-2:]
-    chan = cfa_channel_map(h, w, pattern)
-    rows = [set(pattern[0:2]), set(pattern[2:4])]  # the colours each row parity holds
-    row_has = {c: np.array([c in rows[y % 2] for y in range(h)])[:, None] for c in "RB"}
-    flat = arr.reshape((-1, h, w)).astype(np.float64)
-    out = np.empty(flat.shape + (3,), dtype=np.float64)
-    for i, img in enumerate(flat):
-        f = _filters(img)
-        out[i, ..., 1] = np.where(chan == 1, img, f["g_at_rb"])
-        for c, idx in (("R", 0), ("B", 2)):
-            at_g = np.where(row_has[c], f["at_g_row"], f["at_g_col"])
-            out[i, ..., idx] = np.where(chan == idx, img, np.where(chan == 1, at_g, f["at_opposite"]))
-    np.maximum(out, 0.0, out=out)
-    return out.reshape(arr.shape + (3,)).astype(dtype)
+    return demosaic_each(mosaic, cfa, _mhc_one)
+
+
+def _mhc_one(img: np.ndarray, chan: np.ndarray, row_has: dict) -> np.ndarray:
+    f = _filters(img)
+    out = np.empty(img.shape + (3,))
+    out[..., 1] = np.where(chan == 1, img, f["g_at_rb"])
+    for c, idx in (("R", 0), ("B", 2)):
+        at_g = np.where(row_has[c], f["at_g_row"], f["at_g_col"])
+        out[..., idx] = np.where(chan == idx, img, np.where(chan == 1, at_g, f["at_opposite"]))
+    return out
 
 
 def demosaic(mosaic, cfa: str = "RGGB", method: str = "bilinear") -> np.ndarray:

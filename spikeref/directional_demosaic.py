@@ -36,7 +36,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import correlate1d
 
-from spikeref.bayer import cfa_channel_map, check_mosaic, validate_cfa
+from spikeref.bayer import demosaic_each
 
 __all__ = ["GREEN_FILTER", "demosaic_ddfapd"]
 
@@ -95,13 +95,4 @@ def demosaic_ddfapd(mosaic, cfa: str = "RGGB") -> np.ndarray:
     ndarray ``(..., H, W, 3)``, float32 (float64 for float64 input), ≥ 0; the sampled colour of each pixel
     is its sample.
     """
-    pattern = validate_cfa(cfa)
-    arr, dtype = check_mosaic(mosaic)
-    h, w = arr.shape[-2:]
-    chan = cfa_channel_map(h, w, pattern)
-    rows = [set(pattern[0:2]), set(pattern[2:4])]  # the colours each row parity holds
-    row_has = {c: np.array([c in rows[y % 2] for y in range(h)])[:, None] for c in "RB"}
-    flat = arr.reshape((-1, h, w)).astype(np.float64)
-    out = np.stack([_one(img, chan, row_has) for img in flat]) if len(flat) else np.empty((0, h, w, 3))
-    np.maximum(out, 0.0, out=out)
-    return out.reshape(arr.shape + (3,)).astype(dtype)
+    return demosaic_each(mosaic, cfa, _one)

@@ -4,7 +4,7 @@ import numpy as np
 
 from spikeref.oracles.case import OracleCase
 
-__all__ = ["bayer_planes_oracle", "demosaic_bilinear_oracle", "GOLDEN_CASES", "CFA_PATTERNS"]
+__all__ = ["whole_sample_mirror", "bayer_planes_oracle", "demosaic_bilinear_oracle", "GOLDEN_CASES", "CFA_PATTERNS"]
 
 _COLOUR = {"R": 0, "G": 1, "B": 2}
 
@@ -18,6 +18,15 @@ def bayer_planes_oracle(mosaic):
             for j in range(w // 2):
                 planes[p, i, j] = mosaic[2 * i + p // 2, 2 * j + p % 2]
     return planes
+
+
+def whole_sample_mirror(i, n):
+    """Index ``i`` of an axis of length ``n`` mirrored about the edge pixels, repeated (``−1 → 1``, ``n → n − 2``;
+    period ``2(n − 1)``): the border of the sharper demosaics, which keeps the CFA's parity."""
+    if n == 1:
+        return 0
+    i %= 2 * (n - 1)
+    return 2 * (n - 1) - i if i >= n else i
 
 
 def demosaic_bilinear_oracle(mosaic, cfa="RGGB"):

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from spikeref.oracles.bayer import CFA_PATTERNS
+from spikeref.oracles.bayer import CFA_PATTERNS, whole_sample_mirror
 from spikeref.oracles.case import OracleCase
 
 __all__ = ["demosaic_mhc_oracle", "GOLDEN_CASES"]
@@ -23,14 +23,8 @@ def demosaic_mhc_oracle(mosaic, cfa="RGGB"):
     h, w = m.shape
     colour = [[cfa[(y % 2) * 2 + (x % 2)] for x in range(w)] for y in range(h)]
 
-    def fold(i, n):  # mirror about the edge pixels, repeated: period 2(n − 1)
-        if n == 1:
-            return 0
-        i %= 2 * (n - 1)
-        return 2 * (n - 1) - i if i >= n else i
-
     def at(y, x):
-        return m[fold(y, h), fold(x, w)]
+        return m[whole_sample_mirror(y, h), whole_sample_mirror(x, w)]
 
     def filt(kernel, y, x):
         return sum(kernel[i][j] * at(y + i - 2, x + j - 2) for i in range(5) for j in range(5)) / 8.0

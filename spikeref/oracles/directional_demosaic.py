@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from spikeref.oracles.bayer import CFA_PATTERNS
+from spikeref.oracles.bayer import CFA_PATTERNS, whole_sample_mirror
 from spikeref.oracles.case import OracleCase
 
 __all__ = ["demosaic_ddfapd_oracle", "GOLDEN_CASES"]
@@ -19,17 +19,11 @@ def demosaic_ddfapd_oracle(mosaic, cfa="RGGB"):
     m = np.asarray(mosaic, dtype=np.float64)
     h, w = m.shape
 
-    def fold(i, n):  # mirror about the edge pixels, repeated: period 2(n − 1)
-        if n == 1:
-            return 0
-        i %= 2 * (n - 1)
-        return 2 * (n - 1) - i if i >= n else i
-
     def colour(y, x):
         return cfa[(y % 2) * 2 + (x % 2)]
 
     def get(a, y, x):
-        return a[fold(y, h), fold(x, w)]
+        return a[whole_sample_mirror(y, h), whole_sample_mirror(x, w)]
 
     # step 1: the filter along the row (H) and along the column (V)
     f = {"H": np.zeros((h, w)), "V": np.zeros((h, w))}
