@@ -158,8 +158,8 @@ class ReconstructParams:
         (the real outdoor recording: −5.1 dB against the binomial merge; ``docs/results.md``, "The adaptive merge
         as the default").  Not in the paper; not with ``warp="progressive"``.  On charges the adaptive merge gains
         0.72 / 0.39 dB on the benchmark / held-out means (10 of 12 scenes up, two within 0.03 dB) and 0.5 dB on the
-        real recording, at 0.7× the binomial merge's frames/s.  With ``"adaptive"`` or ``"robust"`` (and the
-        composed warp) the steps below ``L`` merge their ``K`` frames robustly too, without shells (the embedded
+        real recording, at 0.7× the binomial merge's frames/s.  With ``"adaptive"`` or ``"robust"`` (and
+        alignment on) the steps below ``L`` merge their ``K`` frames robustly too, without shells (the embedded
         sample's steps rise, 27.48, 27.98, 28.01, 28.70 dB, where Eq. 14–15's mean put steps 1–2 under ``R_0``).
     support : int
         With ``merge="adaptive"``: the farthest window, in windows from the reference (default 10: 100 planes
