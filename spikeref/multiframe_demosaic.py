@@ -92,9 +92,9 @@ correction is ``M' − Ψ(I)`` with ``M' = MHC(I) + a (DDFAPD(I) − MHC(I))`` b
 ``a = clip(1 − ρ/ρ₀, 0, 1)``, ``ρ`` the share of ``Ψ(I)``'s local detail its colours do not share and ``ρ₀`` =
 :data:`DETAIL_GATE`.  Measured on the benchmark scenes at the defaults (``docs/results.md``, "The directional
 demosaic where the colours share their detail"): 31.03 → 31.63 dB; the directional demosaic alone in place of MHC
-31.73 but the fan 24.85 → 24.62; gated by the saturation instead, ``clip(1 − s/s₁)``, ``s₁`` = 0.7 / 1 / 1.5:
-31.57 / 31.64 / 31.69 with the fan 24.85 / 24.81 / 24.77; by ``ρ`` with ``ρ₀`` = 1 / 1.25: 31.56 / 31.63, the fan
-24.86 / 24.84.
+31.73 but the fan 24.85 → 24.62; gated by the saturation instead, ``clip(1 − s/s₁)``, ``s₁`` = 0.7 / 1: 31.57 /
+31.64 with the fan 24.85 / 24.82 (with a Wiener gain for each demosaic, ``s₁`` = 1.5: 31.69, the fan 24.77); by
+``ρ`` with ``ρ₀`` = 1 / 1.25: 31.56 / 31.63, the fan 24.86 / 24.84.
 
 The literal oracles are :func:`spikeref.oracles.multiframe_demosaic.multiframe_demosaic_oracle` and
 :func:`~spikeref.oracles.multiframe_demosaic.phase_diversity_oracle`.

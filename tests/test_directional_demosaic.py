@@ -44,16 +44,31 @@ def test_grey_stripes_are_exact_along_either_direction(cfa):
     assert GREEN_FILTER.sum() == 1.0
 
 
-def test_the_decision_follows_the_edge():
-    """A grey edge along the rows: with the decision forced the wrong way (the columns, as the oracle would
-    with ``δ_H`` and ``δ_V`` exchanged) the green at the edge is an average across it; the kernel is exact."""
+def test_the_decision_follows_the_edge(monkeypatch):
+    """A grey edge along the rows is reproduced exactly; with the decision reversed (the classifiers negated, so the
+    columns win where the rows vary less) the green at the edge is read across it."""
+    import spikeref.directional_demosaic as dd
+
     grey = np.where(np.arange(12)[:, None] < 6, 0.2, 0.8) * np.ones((12, 10))
     rgb = np.repeat(grey[..., None], 3, axis=-1)
     m = _mosaic(rgb, "RGGB")
-    out = demosaic_ddfapd(m)
-    np.testing.assert_allclose(out, rgb, atol=1e-12)
-    across = np.abs(demosaic_mhc(m) - rgb).max()  # a fixed filter reads across the edge
-    assert across > 0.05
+    np.testing.assert_allclose(demosaic_ddfapd(m), rgb, atol=1e-12)
+    classifier = dd._classifier
+    monkeypatch.setattr(dd, "_classifier", lambda c, axis: -classifier(c, axis))
+    assert np.abs(demosaic_ddfapd(m) - rgb)[4:8, 2:-2, 1].max() > 0.1
+
+
+def test_a_tie_takes_the_rows():
+    """A grey quadratic ``10 + 3x² + y²`` (whole numbers: exact arithmetic): its colour differences are constant
+    along both axes away from the right and bottom borders, so ``δ_H = δ_V = 0`` and the tie takes the rows: the
+    green at an R or B pixel is the row filter's, ``m − 3`` (``Σ k_i i² = −1`` times the row curvature 3), where the
+    columns would give ``m − 1``."""
+    yy, xx = np.mgrid[0:10, 0:12].astype(np.float64)
+    m = 10 + 3 * xx ** 2 + yy ** 2
+    g = demosaic_ddfapd(m, "RGGB")[..., 1]
+    not_green = cfa_channel_map(10, 12, "RGGB") != 1
+    inside = not_green[:5, :7]
+    np.testing.assert_array_equal((g - m)[:5, :7][inside], -3.0)
 
 
 def test_sharper_than_mhc_on_grey_edges():

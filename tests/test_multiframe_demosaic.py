@@ -273,7 +273,7 @@ def test_colour_detail_ratio_of_grey_tinted_checkerboard_and_one_colour_detail()
 def test_the_correction_is_directional_where_the_colours_share_detail(monkeypatch):
     """A still grey scene of stripes along the rows (every window the same, on the reference's CFA lattice): the
     frame takes the directional demosaic's correction, exact on such stripes, and its error is well below the
-    frame's with Malvar–He–Cutler's correction alone (``ρ`` forced to 1)."""
+    frame's with Malvar–He–Cutler's correction alone (``ρ`` forced to ``DETAIL_GATE``: the directional share 0)."""
     import spikeref.multiframe_demosaic as mfd
     from spikeref.bayer import bayer_planes, cfa_channel_map
 
@@ -292,5 +292,6 @@ def test_the_correction_is_directional_where_the_colours_share_detail(monkeypatc
         return float(np.mean((out - grey[..., None]) ** 2))
 
     directional = err()
-    monkeypatch.setattr(mfd, "colour_detail_ratio", lambda rgb, box=mfd.SATURATION_BOX: np.ones(rgb.shape[:2]))
+    monkeypatch.setattr(mfd, "colour_detail_ratio",
+                        lambda rgb, box=mfd.SATURATION_BOX: np.full(rgb.shape[:2], mfd.DETAIL_GATE))
     assert directional < 0.5 * err()

@@ -188,9 +188,11 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
         what=("the multi-frame demosaic: each full-resolution pixel and colour gathers every merged window's raw "
               "Bayer samples around where its content is in that window, weighted by the window's final merge weight "
               "and a Gaussian of the distance (`σ = 0.6` px for red and blue, `σ/√2` for green); the denoiser's change "
-              "of the merged planes is added through Ψ, and the Malvar–He–Cutler correction where the windows sampled "
-              "only the reference's CFA phases (`1 − δ`, [spec](spec/multiframe_demosaic.md#phase_diversity)), "
-              "halved where the colour is saturated (`colour_saturation`); where the merge took about one window "
+              "of the merged planes is added through Ψ, and a sharper demosaic's correction (the directional "
+              "demosaic where the colours share their detail, `colour_detail_ratio`, Malvar–He–Cutler's elsewhere) "
+              "where the windows sampled only the reference's CFA phases (`1 − δ`, "
+              "[spec](spec/multiframe_demosaic.md#phase_diversity)), halved where the colour is saturated "
+              "(`colour_saturation`); where the merge took about one window "
               "the gathered increment ramps out and its Wiener gain takes that pixel's noise "
               "([spec](spec/multiframe_demosaic.md#multiframe_demosaic))"),
         function=('`spikeref.multiframe_demosaic.multiframe_demosaic`, `phase_diversity`, `colour_saturation`; '
@@ -510,7 +512,8 @@ AUDIT_MAP: tuple[AuditRow, ...] = (
               'and the columns by [−¼, ½, ½, ½, −¼], the direction whose colour differences vary less over the 5×5 '
               'window, R and B through their differences with G, whole-sample mirrored border, negatives clipped'),
         function=('`spikeref.directional_demosaic.demosaic_ddfapd`; `multiframe_frame`\'s correction where the '
-                  'colour is not saturated; `ReconstructParams(demosaic="ddfapd")`, `spikeref reconstruct '
+                  'colours share their detail (`colour_detail_ratio`, `DETAIL_GATE`); '
+                  '`ReconstructParams(demosaic="ddfapd")`, `spikeref reconstruct '
                   '--demosaic ddfapd`'),
         oracle='`oracles.directional_demosaic.demosaic_ddfapd_oracle`',
         tests=('`tests/test_directional_demosaic.py` (oracle by hypothesis for the four patterns, exact on grey '

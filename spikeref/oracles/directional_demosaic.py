@@ -102,12 +102,16 @@ def demosaic_ddfapd_oracle(mosaic, cfa="RGGB"):
 def _inputs():
     rng = np.random.default_rng(43)
     yy, xx = np.mgrid[0:10, 0:12]
-    # a random field plus an oblique edge, so that both directions are chosen somewhere
-    return {"mosaic": 0.3 * rng.random((10, 12)) + 0.6 * (2 * yy + xx > 14)}
+    # a random field plus an oblique edge, so that both directions are chosen somewhere; and a grey quadratic
+    # 10 + 3x² + y² in whole numbers (exact arithmetic), whose colour differences are constant along both axes away
+    # from the right and bottom borders: δ_H = δ_V = 0 there, and the tie rule (the rows) decides the green
+    return {"mosaic": 0.3 * rng.random((10, 12)) + 0.6 * (2 * yy + xx > 14),
+            "quadratic": (10 + 3 * xx ** 2 + yy ** 2).astype(np.float64)}
 
 
 def _outputs(i, demosaic):
-    return {f"rgb_{c.lower()}": demosaic(i["mosaic"], c) for c in CFA_PATTERNS}
+    return {**{f"rgb_{c.lower()}": demosaic(i["mosaic"], c) for c in CFA_PATTERNS},
+            "rgb_quadratic": demosaic(i["quadratic"], "RGGB")}
 
 
 GOLDEN_CASES = (
@@ -117,7 +121,8 @@ GOLDEN_CASES = (
         "spikeref.directional_demosaic.demosaic_ddfapd",
         "spikeref.oracles.directional_demosaic.demosaic_ddfapd_oracle",
         "Menon–Andriani–Calvagno (2007) directional demosaic, without its refining step, of a 10×12 mosaic "
-        "(random plus an oblique edge) with each of the four patterns: green along the rows and the columns by "
+        "(random plus an oblique edge) with each of the four patterns, and of a grey quadratic 10 + 3x² + y² (RGGB: "
+        "ties, where the rows decide): green along the rows and the columns by "
         "[−¼, ½, ½, ½, −¼], the direction whose colour differences vary less over the 5×5 window, red and blue "
         "through their differences with the green; mirrored about the edge pixels, negative results clipped to 0.",
         _inputs, lambda i: _outputs(i, demosaic_ddfapd_oracle), rtol=1e-10, atol=1e-12,

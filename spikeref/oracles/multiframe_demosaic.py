@@ -130,8 +130,8 @@ GOLDEN_CASES = (
         outputs=_outputs,
     ),
     OracleCase(
-        "phase_diversity", "— (not in the paper; weights the Malvar–He–Cutler correction added to the multi-frame "
-        "demosaic)",
+        "phase_diversity", "— (not in the paper; weights the demosaic correction (directional / Malvar–He–Cutler) "
+        "added to the multi-frame demosaic)",
         "spikeref.multiframe_demosaic.phase_diversity",
         "spikeref.oracles.multiframe_demosaic.phase_diversity_oracle",
         "The multi-frame demosaic case's positions and weights (five windows of 5×6 cells drifting 0.2 / 0.3 plane "
