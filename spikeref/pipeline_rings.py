@@ -120,6 +120,7 @@ class FrameRings:
         self.merge_windows: dict[int, np.ndarray] = {}  # the robust merge's effective windows per pixel, by frame
         self.multiframe: dict[int, tuple] = {}  # demosaic="multiframe": (windows' planes, positions, final weights)
         self.counts: dict[int, np.ndarray] = {}
+        self.noise: dict[int, np.ndarray] = {}  # each window's local noise per plane (the robust merges' v)
 
     # step 0 -------------------------------------------------------------
     def window_counts(self, k: int) -> np.ndarray:
@@ -140,6 +141,15 @@ class FrameRings:
         if repair is None:
             return planes
         return repair.planes(planes.astype(np.float32))  # counts become float32, as charges are
+
+    def window_noise(self, k: int) -> np.ndarray:
+        """The local noise of window ``k``'s rate per Bayer plane, ``(4, h, w)`` float64
+        (:func:`spikeref.align_noise.local_noise`): one window's ``v`` in the robust merges, made once per window
+        (the output's merge and each step below ``L`` read it)."""
+        if k not in self.noise:
+            rates = self.window_counts(k).astype(np.float64) / self.p.window
+            self.noise[k] = np.stack([local_noise(plane) for plane in rates])
+        return self.noise[k]
 
     def _charge_block(self, k: int) -> None:
         """The charges (:func:`spikeref.charge.window_charge`) of windows ``k …`` (up to
@@ -287,8 +297,8 @@ class FrameRings:
                     samples[j], inside[j] = warp_bilinear(frame, flows[j])
             # one window's noise (as the output's merge takes it) over the frames' noise-equivalent exposure
             scale = p.window / exposure_planes(p.window, p.K, step - 1)
-            noise = np.stack([local_noise(plane) * scale for plane in self.planes(0, k).astype(np.float64)])
-            merged, _ = robust_merge(samples, inside, noise, hh, np.ones(p.K, bool), MergeParams(), check=False)
+            merged, _ = robust_merge(samples, inside, self.window_noise(k) * scale, hh, np.ones(p.K, bool),
+                                     MergeParams(), check=False)
         return merged
 
     def step0_flows(self, k: int) -> np.ndarray:
@@ -376,9 +386,7 @@ class FrameRings:
         core = np.zeros(samples.shape[0], bool)
         core[offset:offset + n] = True
         with self.timed("warp"):
-            reference = counts[reach].astype(np.float64) / p.window
-            noise = np.stack([local_noise(plane) for plane in reference])
-            est, windows, *final = robust_merge(samples, weights, noise, offset + reach, core,
+            est, windows, *final = robust_merge(samples, weights, self.window_noise(k), offset + reach, core,
                                                 MergeParams(shells=shells, window=float(p.window)),
                                                 check=False, final_weights=multiframe)
         self.merge_windows[k] = windows
@@ -445,3 +453,5 @@ class FrameRings:
             del self.multiframe[key]
         for key in [key for key in self.merge_windows if key < next_k]:
             del self.merge_windows[key]
+        for key in [key for key in self.noise if key < next_k - (L - 1) * hh]:  # the steps' lowest window
+            del self.noise[key]
